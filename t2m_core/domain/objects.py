@@ -1,0 +1,182 @@
+"""Object specifications of the TableEnv world (tableenv.md §2, §4): exact geometry, mass, colour and
+the static shape features that enter the observation.
+
+Frames: every object's origin is the centre of its bounding box, except the table and the rack, whose
+origins are their top surfaces (z = 0 for the table, z = 0.16 above the table for a standing rack).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+
+import numpy as np
+
+
+class ObjectKind(str, Enum):
+    """Object types of the symbolic layer."""
+
+    TABLE = "table"  # unmovable support
+    RACK = "rack"  # unmovable receptacle
+    HOOK = "hook"  # movable tool
+    BOX = "box"  # movable
+
+
+@dataclass(frozen=True)
+class BoxPart:
+    """One rigid box of a compound object, in the object frame.
+
+    Attributes:
+        name: part name (``"top"``, ``"leg_0"``, ``"handle"``...).
+        size: ``(3,)`` full extents in metres.
+        center: ``(3,)`` centre in the object frame, metres.
+    """
+
+    name: str
+    size: tuple[float, float, float]
+    center: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class CylinderPart:
+    """A cylinder (``axis`` "x" or "y") or, with ``length == 0``, a sphere of the hook, object frame."""
+
+    name: str
+    radius: float
+    length: float
+    axis: str
+    center: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class HookGeometry:
+    """The L-shaped hook's parameters (tableenv.md §4.3), metres except ``handle_y`` (a sign/scale)."""
+
+    head_length: float = 0.20
+    handle_length: float = 0.38
+    handle_y: float = -1.0
+    radius: float = 0.02
+
+    @property
+    def lateral_offset(self) -> float:
+        """``dy`` of §4.3: ½·sign(handle_y)·max(0, (|handle_y| − 1)·h/2 + r) (−0.01 for the default)."""
+        h, r = self.head_length, self.radius
+        return 0.5 * float(np.sign(self.handle_y)) * max(0.0, (abs(self.handle_y) - 1.0) * h / 2 + r)
+
+    def cylinders(self) -> tuple[CylinderPart, ...]:
+        """Handle (axis x), head (axis y) and the joint sphere, as built by the simulators."""
+        h, l_, r, hy, dy = self.head_length, self.handle_length, self.radius, self.handle_y, self.lateral_offset
+        return (
+            CylinderPart("handle", r, l_, "x", (-r / 2, hy * h / 2 - dy, 0.0)),
+            CylinderPart("head", r, h, "y", ((l_ - r) / 2, -dy, 0.0)),
+            CylinderPart("joint", r, 0.0, "x", ((l_ - r) / 2, hy * h / 2 - dy, 0.0)),
+        )
+
+    def footprint(self) -> tuple[BoxPart, ...]:
+        """The two boxes used by the geometric tests (§4.3): handle 0.40 × 0.04 and head 0.04 × 0.22."""
+        h, l_, r = self.head_length, self.handle_length, self.radius
+        handle_y_center = self.handle_y * h / 2 - self.lateral_offset + 0.0
+        return (
+            BoxPart("handle", (l_ + r, 2 * r, 2 * r), (0.0, handle_y_center, 0.0)),
+            BoxPart("head", (2 * r, h + 2 * abs(-self.lateral_offset), 2 * r), ((l_ - r) / 2, 0.0, 0.0)),
+        )
+
+    @property
+    def size(self) -> tuple[float, float, float]:
+        """Overall bounding-box size (l + r, h + 2·|head centre y|, 2r) = (0.40, 0.22, 0.04)."""
+        return (self.handle_length + self.radius, self.head_length + 2 * abs(self.lateral_offset), 2 * self.radius)
+
+
+@dataclass(frozen=True)
+class ObjectSpec:
+    """Everything static about one object.
+
+    Attributes:
+        name: the object's name in tasks, prompts and goals (``"red_box"``).
+        kind: its symbolic type.
+        size: ``(3,)`` bounding-box extents in metres (the table's is its slab; the hook's §4.3).
+        mass: kilograms (0 for static bodies).
+        rgba: display colour.
+        hook: hook parameters, only for the hook.
+    """
+
+    name: str
+    kind: ObjectKind
+    size: tuple[float, float, float]
+    mass: float
+    rgba: tuple[float, float, float, float]
+    hook: HookGeometry | None = None
+
+    @property
+    def movable(self) -> bool:
+        """Boxes and the hook can be grasped; the table and the rack cannot."""
+        return self.kind in (ObjectKind.BOX, ObjectKind.HOOK)
+
+    def shape_features(self) -> np.ndarray:
+        """``(6,) float32`` static observation features (indices 6–11 of a row, tableenv.md §9.2):
+        box_size xyz for boxes and the rack, head_length, handle_length, handle_y for the hook, zeros
+        for the table."""
+        features = np.zeros(6, dtype=np.float32)
+        if self.kind in (ObjectKind.BOX, ObjectKind.RACK):
+            features[:3] = self.size
+        elif self.kind is ObjectKind.HOOK and self.hook is not None:
+            features[3:] = (self.hook.head_length, self.hook.handle_length, self.hook.handle_y)
+        return features
+
+    def parts(self) -> tuple[BoxPart, ...]:
+        """Rigid box parts in the object frame (rack: plate, 4 legs, 2 stabilisers; box: itself;
+        table: its slab below z = 0). The hook is made of cylinders: see :meth:`HookGeometry.cylinders`."""
+        sx, sy, sz = self.size
+        if self.kind is ObjectKind.RACK:
+            legs = tuple(
+                BoxPart(f"leg_{i}", (0.01, 0.01, sz - 0.02), (ix * (sx - 0.01) / 2, iy * (sy - 0.01) / 2, -sz / 2))
+                for i, (ix, iy) in enumerate(((1, 1), (1, -1), (-1, 1), (-1, -1)))
+            )
+            bars = tuple(
+                BoxPart(f"bar_{i}", (sx, 0.01, 0.01), (0.0, iy * (sy - 0.01) / 2, -sz + 0.005))
+                for i, iy in enumerate((1, -1))
+            )
+            return (BoxPart("top", (sx, sy, 0.01), (0.0, 0.0, -0.005)), *legs, *bars)
+        if self.kind is ObjectKind.TABLE:
+            return (BoxPart("slab", self.size, (0.0, 0.0, -self.size[2] / 2)),)
+        if self.kind is ObjectKind.HOOK and self.hook is not None:
+            return self.hook.footprint()
+        return (BoxPart("body", self.size, (0.0, 0.0, 0.0)),)
+
+    def local_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """``((3,), (3,))`` min and max corners of the bounding box in the object frame, metres."""
+        sx, sy, sz = self.size
+        half = np.array([sx / 2, sy / 2, sz / 2])
+        if self.kind is ObjectKind.RACK:
+            return np.array([-sx / 2, -sy / 2, -sz]), np.array([sx / 2, sy / 2, 0.0])
+        if self.kind is ObjectKind.TABLE:
+            return np.array([-sx / 2, -sy / 2, -sz]), np.array([sx / 2, sy / 2, 0.0])
+        return -half, half
+
+
+HOOK_GEOMETRY = HookGeometry()
+
+TABLE_CENTER_XY: tuple[float, float] = (0.3, 0.0)
+"""The table's top-surface centre in the world (m); its observation row is nevertheless all zeros."""
+
+OBJECTS: dict[str, ObjectSpec] = {
+    spec.name: spec
+    for spec in (
+        ObjectSpec("table", ObjectKind.TABLE, (1.2, 0.9, 0.05), 0.0, (0.82, 0.74, 0.62, 1.0)),
+        ObjectSpec("rack", ObjectKind.RACK, (0.22, 0.32, 0.16), 1.0, (0.4, 0.2, 0.0, 1.0)),
+        ObjectSpec("hook", ObjectKind.HOOK, HOOK_GEOMETRY.size, 0.1, (0.6, 0.6, 0.6, 1.0), hook=HOOK_GEOMETRY),
+        ObjectSpec("red_box", ObjectKind.BOX, (0.050, 0.050, 0.118), 0.1, (1.0, 0.0, 0.0, 1.0)),
+        ObjectSpec("blue_box", ObjectKind.BOX, (0.050, 0.050, 0.106), 0.1, (0.0, 0.0, 1.0, 1.0)),
+        ObjectSpec("yellow_box", ObjectKind.BOX, (0.057, 0.057, 0.066), 0.1, (1.0, 1.0, 0.0, 1.0)),
+        ObjectSpec("cyan_box", ObjectKind.BOX, (0.058, 0.058, 0.070), 0.1, (0.0, 1.0, 1.0, 1.0)),
+    )
+}
+"""Every object of the world, by name (tableenv.md §4.1)."""
+
+
+def object_spec(name: str) -> ObjectSpec:
+    """The specification of ``name``; raises ``KeyError`` naming the known objects."""
+    try:
+        return OBJECTS[name]
+    except KeyError:
+        raise KeyError(f"unknown object {name!r}; known objects: {', '.join(OBJECTS)}") from None

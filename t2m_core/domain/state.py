@@ -1,0 +1,56 @@
+"""The geometric state of a TableEnv scene: object poses (metres, xyzw quaternions) and the end effector.
+
+This is the value every part exchanges: simulators report it, scene parsers produce it, predicates,
+the observation encoding and the learned skills consume it. Shapes (sizes, hook dimensions) are not
+stored here: they come from the object specifications in :mod:`t2m_core.domain.objects`, looked up by
+object name.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class ObjectPose:
+    """Pose of one object in the world frame.
+
+    Attributes:
+        position: ``(3,) float64`` object-frame origin in metres. For the rack the origin is its top
+            plate; for boxes and the hook it is the bounding-box centre; the table's is ``0``.
+        quaternion: ``(4,) float64`` world orientation, ``(x, y, z, w)``.
+    """
+
+    position: np.ndarray
+    quaternion: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 0.0, 1.0]))
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "position", np.asarray(self.position, dtype=np.float64).reshape(3))
+        object.__setattr__(self, "quaternion", np.asarray(self.quaternion, dtype=np.float64).reshape(4))
+
+
+@dataclass(frozen=True)
+class GeometricState:
+    """A scene's geometry at one instant.
+
+    Attributes:
+        objects: object name -> pose, in the task's object order (``table`` first). Only present
+            objects appear; the order is the order of observation rows ``1..N``.
+        ee_position: ``(3,) float64`` end-effector operational point in metres (world frame).
+        ee_quaternion: ``(4,) float64`` end-effector orientation *relative to the home orientation*,
+            ``(x, y, z, w)`` (the identity means top-down at home yaw; tableenv.md §3.1).
+        held: name of the object rigidly grasped, or ``None``.
+    """
+
+    objects: Mapping[str, ObjectPose]
+    ee_position: np.ndarray = field(default_factory=lambda: np.array([0.402, 0.0, 0.400]))
+    ee_quaternion: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 0.0, 1.0]))
+    held: str | None = None
+
+    @property
+    def object_names(self) -> tuple[str, ...]:
+        """Present objects in observation-row order."""
+        return tuple(self.objects)

@@ -1,0 +1,109 @@
+"""Spec objects that registration hooks return: one per component a plugin provides.
+
+A spec names a component, its aliases and its options model, and points at its factory by import
+path, so that registering a plugin never imports its heavy dependencies. The registry
+(:mod:`t2m_core.registry`) owns the policy: unique names, alias resolution, "did you mean".
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+from pydantic import BaseModel, ConfigDict
+
+
+class NoOptions(BaseModel):
+    """Options model of a component that takes none."""
+
+    model_config = ConfigDict(extra="forbid")
+
+
+@dataclass(frozen=True)
+class ComponentSpec:
+    """Describes one component a plugin provides.
+
+    Attributes:
+        name: the name users select it by (``--sim mujoco``); lowercase, ``-`` or ``_`` separated.
+        factory: ``"module.path:attribute"`` of a callable taking the validated options model and
+            returning the component, or the callable itself. Import paths are resolved lazily by
+            :meth:`load_factory`, so heavy imports happen only when the component is used.
+        options: pydantic model of the component's options (reject unknown keys).
+        aliases: other names that resolve to this component (``gpt-4`` for the litellm model).
+        summary: one line for ``t2m list-plugins``.
+    """
+
+    kind: ClassVar[str] = ""
+
+    name: str
+    factory: str | Callable[..., Any]
+    options: type[BaseModel] = NoOptions
+    aliases: tuple[str, ...] = ()
+    summary: str = ""
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def load_factory(self) -> Callable[..., Any]:
+        """Import and return the factory callable."""
+        if callable(self.factory):
+            return self.factory
+        module_name, _, attribute = self.factory.partition(":")
+        if not attribute:
+            raise ValueError(f"factory of {self.kind} {self.name!r} must look like 'module:attribute', got {self.factory!r}")
+        module = importlib.import_module(module_name)
+        return getattr(module, attribute)
+
+    def create(self, options: BaseModel | dict[str, Any] | None = None) -> Any:
+        """Validate ``options`` against :attr:`options` and build the component."""
+        validated = options if isinstance(options, self.options) else self.options.model_validate(options or {})
+        return self.load_factory()(validated)
+
+
+@dataclass(frozen=True)
+class SimulatorSpec(ComponentSpec):
+    """A physics backend (:class:`t2m_core.protocols.Simulator`)."""
+
+    kind: ClassVar[str] = "simulator"
+
+
+@dataclass(frozen=True)
+class SkillLibrarySpec(ComponentSpec):
+    """A skill library: its factory returns a mapping of skill name to :class:`~t2m_core.protocols.Skill`."""
+
+    kind: ClassVar[str] = "skill_library"
+
+
+@dataclass(frozen=True)
+class FeasibilityPlannerSpec(ComponentSpec):
+    """A feasibility planner (:class:`t2m_core.protocols.FeasibilityPlanner`)."""
+
+    kind: ClassVar[str] = "feasibility_planner"
+
+
+@dataclass(frozen=True)
+class LanguageModelSpec(ComponentSpec):
+    """A language model backend (:class:`t2m_core.protocols.LanguageModel`)."""
+
+    kind: ClassVar[str] = "language_model"
+
+
+@dataclass(frozen=True)
+class SceneParserSpec(ComponentSpec):
+    """A scene parser (:class:`t2m_core.protocols.SceneParser`)."""
+
+    kind: ClassVar[str] = "scene_parser"
+
+
+@dataclass(frozen=True)
+class TaskPlannerSpec(ComponentSpec):
+    """A task planner (:class:`t2m_core.protocols.TaskPlanner`)."""
+
+    kind: ClassVar[str] = "task_planner"
+
+
+SPEC_TYPES: dict[str, type[ComponentSpec]] = {
+    spec.kind: spec
+    for spec in (SimulatorSpec, SkillLibrarySpec, FeasibilityPlannerSpec, LanguageModelSpec, SceneParserSpec, TaskPlannerSpec)
+}
+"""Component kind -> spec type."""
