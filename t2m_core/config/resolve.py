@@ -1,0 +1,308 @@
+"""Resolving a run configuration from its sources.
+
+Precedence, lowest first: built-in defaults < config files (deep-merged, later files win) < named
+flags (``--planner --sim --llm --task --seed``) < ``--set a.b=c`` overrides (values parsed as YAML).
+A named flag that changes a component's name drops the options that earlier sources gave the previous
+component: they belong to another plugin. Every problem is reported at once, each with its YAML path
+(``simulator.options.timestep: ...``) and the source that set it.
+"""
+
+from __future__ import annotations
+
+import copy
+import difflib
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import yaml
+from pydantic import BaseModel, ValidationError
+
+from t2m_core.config.models import COMPONENT_BLOCKS, RunConfig
+from t2m_core.errors import ConfigError, PluginError
+
+if TYPE_CHECKING:
+    from t2m_core.registry import Registry
+
+NAMED_FLAGS: dict[str, tuple[str, ...]] = {
+    "planner": ("task_planner", "name"),
+    "sim": ("simulator", "name"),
+    "llm": ("language_model", "name"),
+    "task": ("task",),
+    "seed": ("seed",),
+}
+"""CLI flag -> the config path it sets."""
+
+
+@dataclass(frozen=True)
+class ConfigIssue:
+    """One problem: YAML path, what is wrong, and which source set the value."""
+
+    path: str
+    message: str
+    source: str | None = None
+
+    def __str__(self) -> str:
+        origin = f" (from {self.source})" if self.source else ""
+        return f"{self.path or '(top level)'}: {self.message}{origin}"
+
+
+@dataclass(frozen=True)
+class _Layer:
+    source: str
+    data: dict[str, Any]
+
+
+def load_yaml_file(path: Path) -> dict[str, Any]:
+    """Read one config file (YAML or JSON) as a mapping.
+
+    Raises:
+        ConfigError: missing file, YAML syntax error (with line and column), or not a mapping.
+    """
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as error:
+        raise ConfigError(f"cannot read config file {path}: {error.strerror}", hint="check the path") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as error:
+        mark = getattr(error, "problem_mark", None)
+        where = f":{mark.line + 1}:{mark.column + 1}" if mark is not None else ""
+        problem = getattr(error, "problem", None) or str(error)
+        raise ConfigError(f"{path}{where}: invalid YAML: {problem}", hint="fix the syntax at that position") from None
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        raise ConfigError(
+            f"{path}: a config file must be a mapping of keys, got {type(data).__name__}",
+            hint="start the file with keys such as `task:` or `simulator:`",
+        )
+    return data
+
+
+def deep_merge(base: Mapping[str, Any], update: Mapping[str, Any]) -> dict[str, Any]:
+    """``update`` merged into a copy of ``base``: mappings merge recursively, anything else replaces."""
+    merged = copy.deepcopy(dict(base))
+    for key, value in update.items():
+        if isinstance(value, Mapping) and isinstance(merged.get(key), Mapping):
+            merged[key] = deep_merge(merged[key], value)
+        else:
+            merged[key] = copy.deepcopy(value)
+    return merged
+
+
+def parse_override(text: str) -> tuple[tuple[str, ...], Any]:
+    """``"a.b=c"`` -> ``(("a", "b"), c)`` with ``c`` parsed as YAML (``0.5``, ``true``, ``[1, 2]``, ``null``).
+
+    Raises:
+        ConfigError: no ``=``, or an empty key segment.
+    """
+    key, separator, raw_value = text.partition("=")
+    path = tuple(part.strip() for part in key.split("."))
+    if not separator or not all(path):
+        raise ConfigError(f"invalid --set {text!r}", hint="write it as --set dotted.key=value, e.g. --set seed=3")
+    try:
+        value = yaml.safe_load(raw_value) if raw_value.strip() else None
+    except yaml.YAMLError:
+        value = raw_value  # not valid YAML on its own (e.g. "a: b"): keep the literal text
+    return path, value
+
+
+def _nested(path: Sequence[str], value: Any) -> dict[str, Any]:
+    data: Any = value
+    for part in reversed(path):
+        data = {part: data}
+    return data
+
+
+def resolve_config(
+    files: Iterable[Path] = (),
+    *,
+    flags: Mapping[str, Any] | None = None,
+    overrides: Iterable[str] = (),
+    registry: Registry | None = None,
+) -> RunConfig:
+    """The fully resolved run configuration.
+
+    Args:
+        files: config files, merged in order (later wins).
+        flags: named flags by name (``{"sim": "pybullet", "seed": 3}``); ``None`` values are ignored.
+        overrides: ``"a.b=c"`` strings, applied last, in order.
+        registry: when given, component names must be registered and their options are validated
+            against (and filled in from) each plugin's options model.
+
+    Raises:
+        ConfigError: listing every problem, one ``path: message (from source)`` line each.
+    """
+    config, issues = check_config(files, flags=flags, overrides=overrides, registry=registry)
+    if issues:
+        lines = "\n".join(f"  {issue}" for issue in issues)
+        raise ConfigError(
+            f"invalid run configuration ({len(issues)} problem{'s' if len(issues) > 1 else ''}):\n{lines}",
+            hint="fix the keys named above; `t2m config schema` lists every valid key",
+        )
+    assert config is not None
+    return config
+
+
+def check_config(
+    files: Iterable[Path] = (),
+    *,
+    flags: Mapping[str, Any] | None = None,
+    overrides: Iterable[str] = (),
+    registry: Registry | None = None,
+) -> tuple[RunConfig | None, list[ConfigIssue]]:
+    """Like :func:`resolve_config`, but returns ``(config or None, every issue)`` instead of raising.
+
+    Unreadable files and malformed ``--set`` strings still raise :class:`ConfigError` at once.
+    """
+    layers = [_Layer(str(path), load_yaml_file(Path(path))) for path in files]
+    merged: dict[str, Any] = {}
+    for layer in layers:
+        merged = deep_merge(merged, layer.data)
+
+    flag_layer = _Layer("named flags", {})
+    for flag, value in (flags or {}).items():
+        if value is None:
+            continue
+        if flag not in NAMED_FLAGS:
+            raise ConfigError(f"unknown named flag {flag!r}", hint=f"valid flags: {', '.join(NAMED_FLAGS)}")
+        path = NAMED_FLAGS[flag]
+        if path[-1] == "name":
+            merged = _select_component(merged, path[0], value)
+        flag_layer.data.update(deep_merge(flag_layer.data, _nested(path, value)))
+    merged = deep_merge(merged, flag_layer.data)
+    layers.append(flag_layer)
+
+    set_layer = _Layer("--set", {})
+    for text in overrides:
+        path, value = parse_override(text)
+        merged = _set_path(merged, path, value, text)
+        set_layer = _Layer("--set", deep_merge(set_layer.data, _nested(path, value)))
+    layers.append(set_layer)
+
+    try:
+        config = RunConfig.model_validate(merged)
+    except ValidationError as error:
+        return None, [_issue_from_pydantic(issue, (), RunConfig, layers) for issue in error.errors()]
+    if registry is None:
+        return config, []
+    return _check_components(config, registry, layers)
+
+
+def _select_component(merged: dict[str, Any], block: str, name: str) -> dict[str, Any]:
+    """Drop the previous component's options when a flag picks another component for ``block``."""
+    current = merged.get(block)
+    if isinstance(current, Mapping) and current.get("name") not in (None, name):
+        merged = dict(merged)
+        merged[block] = {key: value for key, value in current.items() if key != "options"}
+    return merged
+
+
+def _set_path(data: dict[str, Any], path: Sequence[str], value: Any, text: str) -> dict[str, Any]:
+    result = copy.deepcopy(data)
+    node = result
+    for depth, part in enumerate(path[:-1]):
+        child = node.get(part)
+        if child is None:
+            child = node[part] = {}
+        if not isinstance(child, dict):
+            where = ".".join(path[: depth + 1])
+            raise ConfigError(
+                f"cannot apply --set {text!r}: {where} is {child!r}, not a mapping",
+                hint=f"set {where} itself, e.g. --set {where}=<value>",
+            )
+        node = child
+    node[path[-1]] = value
+    return result
+
+
+def _check_components(
+    config: RunConfig, registry: Registry, layers: Sequence[_Layer]
+) -> tuple[RunConfig | None, list[ConfigIssue]]:
+    issues: list[ConfigIssue] = []
+    resolved = config.model_dump()
+    for block, kind in COMPONENT_BLOCKS.items():
+        component = getattr(config, block)
+        if component is None:
+            continue
+        try:
+            spec = registry.get(kind, component.name)
+        except PluginError as error:
+            message = f"{error.message}; {error.hint}" if error.hint else error.message
+            issues.append(ConfigIssue(f"{block}.name", message, _source_of((block, "name"), layers)))
+            continue
+        try:
+            options = spec.options.model_validate(component.options)
+        except ValidationError as error:
+            prefix = (block, "options")
+            issues.extend(_issue_from_pydantic(issue, prefix, spec.options, layers) for issue in error.errors())
+            continue
+        resolved[block]["options"] = options.model_dump(mode="json")
+    if issues:
+        return None, issues
+    return RunConfig.model_validate(resolved), []
+
+
+def _issue_from_pydantic(
+    issue: Mapping[str, Any], prefix: tuple[str, ...], model: type[BaseModel], layers: Sequence[_Layer]
+) -> ConfigIssue:
+    loc = tuple(str(part) for part in issue["loc"])
+    path = (*prefix, *loc)
+    message = issue["msg"]
+    if issue["type"] == "extra_forbidden":
+        valid = _valid_keys(model, loc[:-1])
+        close = difflib.get_close_matches(loc[-1], valid, n=1)
+        message = "unknown key" + (f"; did you mean {close[0]!r}?" if close else "")
+        message += f" (valid keys: {', '.join(valid)})" if valid else ""
+    elif issue["type"] == "missing":
+        message = "required key is missing"
+    return ConfigIssue(_format_path(path), message, _source_of(path, layers))
+
+
+def _valid_keys(model: type[BaseModel], loc: Sequence[str]) -> list[str]:
+    """Field names of the (nested) model at ``loc``, or ``[]`` when it is not a model."""
+    current: Any = model
+    for part in loc:
+        field = current.model_fields.get(part) if isinstance(current, type) and issubclass(current, BaseModel) else None
+        if field is None:
+            return []
+        current = _model_in(field.annotation)
+    if isinstance(current, type) and issubclass(current, BaseModel):
+        return list(current.model_fields)
+    return []
+
+
+def _model_in(annotation: Any) -> Any:
+    """The pydantic model inside ``annotation`` (``Model``, ``Model | None``), else ``None``."""
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    for argument in getattr(annotation, "__args__", ()):
+        if (found := _model_in(argument)) is not None:
+            return found
+    return None
+
+
+def _format_path(path: Sequence[str]) -> str:
+    return "".join(f"[{part}]" if part.isdigit() else f".{part}" for part in path).lstrip(".")
+
+
+def _source_of(path: Sequence[str], layers: Sequence[_Layer]) -> str | None:
+    """The last source that sets ``path`` (or a parent of it with a non-mapping value)."""
+    for layer in reversed(layers):
+        node: Any = layer.data
+        for part in path:
+            if not isinstance(node, Mapping):
+                return layer.source  # a list or scalar here replaced everything below it
+            if part not in node:
+                break
+            node = node[part]
+        else:
+            return layer.source
+    return None
+
+
+def config_to_yaml(config: RunConfig) -> str:
+    """The configuration as YAML, keys in model order (what ``t2m config show`` prints)."""
+    return yaml.safe_dump(config.model_dump(mode="json"), sort_keys=False, default_flow_style=False)
