@@ -3,6 +3,7 @@ the static shape features that enter the observation.
 
 Frames: every object's origin is the centre of its bounding box, except the table and the rack, whose
 origins are their top surfaces (z = 0 for the table, z = 0.16 above the table for a standing rack).
+The table's pose is the identity (world origin), so its slab is offset to its centre (0.3, 0, −0.025).
 """
 
 from __future__ import annotations
@@ -11,6 +12,9 @@ from dataclasses import dataclass
 from enum import Enum
 
 import numpy as np
+
+TABLE_CENTER_XY: tuple[float, float] = (0.3, 0.0)
+"""The table's top-surface centre in the world (m); its observation row is nevertheless all zeros."""
 
 
 class ObjectKind(str, Enum):
@@ -138,10 +142,19 @@ class ObjectSpec:
             )
             return (BoxPart("top", (sx, sy, 0.01), (0.0, 0.0, -0.005)), *legs, *bars)
         if self.kind is ObjectKind.TABLE:
-            return (BoxPart("slab", self.size, (0.0, 0.0, -self.size[2] / 2)),)
+            # Offset by the top-surface centre: the table's reported pose is the identity (§2).
+            return (BoxPart("slab", self.size, (*TABLE_CENTER_XY, -self.size[2] / 2)),)
         if self.kind is ObjectKind.HOOK and self.hook is not None:
             return self.hook.footprint()
         return (BoxPart("body", self.size, (0.0, 0.0, 0.0)),)
+
+    def convex_parts(self) -> tuple[BoxPart, ...]:
+        """The convex boxes that the geometric tests of tableenv.md §6 use, object frame: the box
+        itself, the rack's full bounding box (not its 7 parts), the hook's two footprint boxes, the
+        table's slab."""
+        if self.kind is ObjectKind.RACK:
+            return (BoxPart("bbox", self.size, (0.0, 0.0, -self.size[2] / 2)),)
+        return self.parts()
 
     def local_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """``((3,), (3,))`` min and max corners of the bounding box in the object frame, metres."""
@@ -150,14 +163,14 @@ class ObjectSpec:
         if self.kind is ObjectKind.RACK:
             return np.array([-sx / 2, -sy / 2, -sz]), np.array([sx / 2, sy / 2, 0.0])
         if self.kind is ObjectKind.TABLE:
-            return np.array([-sx / 2, -sy / 2, -sz]), np.array([sx / 2, sy / 2, 0.0])
+            # The table's pose is the identity (its observation row is zeros), so its slab sits at
+            # the world position of its top-surface centre: x ∈ [−0.3, 0.9], y ∈ [−0.45, 0.45].
+            cx, cy = TABLE_CENTER_XY
+            return np.array([cx - sx / 2, cy - sy / 2, -sz]), np.array([cx + sx / 2, cy + sy / 2, 0.0])
         return -half, half
 
 
 HOOK_GEOMETRY = HookGeometry()
-
-TABLE_CENTER_XY: tuple[float, float] = (0.3, 0.0)
-"""The table's top-surface centre in the world (m); its observation row is nevertheless all zeros."""
 
 OBJECTS: dict[str, ObjectSpec] = {
     spec.name: spec

@@ -1,0 +1,381 @@
+"""Rotations and the analytic geometric tests of the TableEnv world (tableenv.md §6).
+
+Quaternions are ``(x, y, z, w)``; rotation helpers broadcast over leading axes (``(..., 4)``).
+The object tests work on :class:`ObjectGeometry`, the world-frame corners, AABB and xy footprint of
+an object's *convex parts* (:meth:`ObjectSpec.convex_parts`: the hook's two footprint boxes, the
+rack's full bounding box, a box itself). Engine AABBs, which are padded, are never used.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from t2m_core.domain.constants import (
+    DISTURBANCE_ROTATION,
+    DISTURBANCE_TRANSLATION,
+    EPS_AABB,
+    EPS_ALIGN,
+)
+from t2m_core.domain.objects import ObjectSpec, object_spec
+from t2m_core.domain.state import ObjectPose
+
+IDENTITY_QUAT = np.array([0.0, 0.0, 0.0, 1.0])
+"""``(4,)`` the identity rotation, xyzw."""
+
+# --------------------------------------------------------------------------------------------------
+# Angles and quaternions
+# --------------------------------------------------------------------------------------------------
+
+
+def wrap_angle(angle: float | np.ndarray) -> float | np.ndarray:
+    """Wrap radians to [−π, π)."""
+    wrapped = (np.asarray(angle, dtype=np.float64) + np.pi) % (2 * np.pi) - np.pi
+    return float(wrapped) if wrapped.ndim == 0 else wrapped
+
+
+def quat_normalize(q: np.ndarray) -> np.ndarray:
+    """``(..., 4)`` unit quaternions; raises ``ValueError`` on a zero quaternion."""
+    q = np.asarray(q, dtype=np.float64)
+    norm = np.linalg.norm(q, axis=-1, keepdims=True)
+    if np.any(norm < 1e-12):
+        raise ValueError("cannot normalise a zero quaternion")
+    return q / norm
+
+
+def quat_multiply(q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
+    """Hamilton product ``q1 · q2`` (apply q2 first, then q1), ``(..., 4)`` xyzw."""
+    q1, q2 = np.asarray(q1, dtype=np.float64), np.asarray(q2, dtype=np.float64)
+    x1, y1, z1, w1 = np.moveaxis(q1, -1, 0)
+    x2, y2, z2, w2 = np.moveaxis(q2, -1, 0)
+    return np.stack(
+        (
+            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+            w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+        ),
+        axis=-1,
+    )
+
+
+def quat_conjugate(q: np.ndarray) -> np.ndarray:
+    """``(..., 4)`` conjugate, the inverse of a unit quaternion."""
+    q = np.asarray(q, dtype=np.float64)
+    return q * np.array([-1.0, -1.0, -1.0, 1.0])
+
+
+def quat_to_matrix(q: np.ndarray) -> np.ndarray:
+    """``(..., 4)`` xyzw quaternions → ``(..., 3, 3)`` rotation matrices (normalised first)."""
+    x, y, z, w = np.moveaxis(quat_normalize(q), -1, 0)
+    return np.stack(
+        (
+            np.stack((1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)), axis=-1),
+            np.stack((2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)), axis=-1),
+            np.stack((2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)), axis=-1),
+        ),
+        axis=-2,
+    )
+
+
+def matrix_to_quat(matrix: np.ndarray) -> np.ndarray:
+    """``(..., 3, 3)`` rotation matrices → ``(..., 4)`` xyzw quaternions with w ≥ 0."""
+    m = np.asarray(matrix, dtype=np.float64)
+    m00, m11, m22 = m[..., 0, 0], m[..., 1, 1], m[..., 2, 2]
+    # Four candidate formulas; each is stable where its pivot (|w|, |x|, |y| or |z|) is largest.
+    candidates = np.stack(
+        (
+            np.stack((m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1],
+                      1 + m00 + m11 + m22), axis=-1),
+            np.stack((1 + m00 - m11 - m22, m[..., 0, 1] + m[..., 1, 0], m[..., 0, 2] + m[..., 2, 0],
+                      m[..., 2, 1] - m[..., 1, 2]), axis=-1),
+            np.stack((m[..., 0, 1] + m[..., 1, 0], 1 - m00 + m11 - m22, m[..., 1, 2] + m[..., 2, 1],
+                      m[..., 0, 2] - m[..., 2, 0]), axis=-1),
+            np.stack((m[..., 0, 2] + m[..., 2, 0], m[..., 1, 2] + m[..., 2, 1], 1 - m00 - m11 + m22,
+                      m[..., 1, 0] - m[..., 0, 1]), axis=-1),
+        ),
+        axis=-2,
+    )
+    pivots = np.stack((1 + m00 + m11 + m22, 1 + m00 - m11 - m22, 1 - m00 + m11 - m22, 1 - m00 - m11 + m22), axis=-1)
+    best = np.argmax(pivots, axis=-1)
+    q = np.take_along_axis(candidates, best[..., None, None], axis=-2)[..., 0, :]
+    q = quat_normalize(q)
+    return np.where(q[..., 3:4] < 0, -q, q)
+
+
+def axis_angle_to_quat(axis_angle: np.ndarray) -> np.ndarray:
+    """``(..., 3)`` rotation vectors (angle·axis, radians) → ``(..., 4)`` xyzw quaternions."""
+    aa = np.asarray(axis_angle, dtype=np.float64)
+    angle = np.linalg.norm(aa, axis=-1, keepdims=True)
+    half = 0.5 * angle
+    # sin(θ/2)/θ → 1/2 as θ → 0; the series keeps tiny rotations exact.
+    scale = np.where(angle > 1e-8, np.sin(half) / np.where(angle > 1e-8, angle, 1.0), 0.5 - angle**2 / 48)
+    return np.concatenate((aa * scale, np.cos(half)), axis=-1)
+
+
+def quat_to_axis_angle(q: np.ndarray) -> np.ndarray:
+    """``(..., 4)`` xyzw quaternions → ``(..., 3)`` rotation vectors angle·axis with angle ∈ [0, π]."""
+    q = quat_normalize(q)
+    q = np.where(q[..., 3:4] < 0, -q, q)  # the same rotation with angle ≤ π
+    vec, w = q[..., :3], q[..., 3:4]
+    sin_half = np.linalg.norm(vec, axis=-1, keepdims=True)
+    angle = 2 * np.arctan2(sin_half, w)
+    scale = np.where(sin_half > 1e-8, angle / np.where(sin_half > 1e-8, sin_half, 1.0), 2.0 + sin_half**2 / 3)
+    return vec * scale
+
+
+def yaw_to_quat(yaw: float | np.ndarray) -> np.ndarray:
+    """Rotation Rz(yaw) about the world z axis, ``(..., 4)`` xyzw, yaw in radians."""
+    half = 0.5 * np.asarray(yaw, dtype=np.float64)
+    zeros = np.zeros_like(half)
+    return np.stack((zeros, zeros, np.sin(half), np.cos(half)), axis=-1)
+
+
+def quat_yaw(q: np.ndarray) -> float | np.ndarray:
+    """Heading of the rotated x axis, atan2(R₁₀, R₀₀), radians in [−π, π]."""
+    rotation = quat_to_matrix(q)
+    yaw = np.arctan2(rotation[..., 1, 0], rotation[..., 0, 0])
+    return float(yaw) if np.ndim(yaw) == 0 else yaw
+
+
+def quat_angle(q1: np.ndarray, q2: np.ndarray) -> float | np.ndarray:
+    """Angle of the rotation taking q1 to q2, radians in [0, π]."""
+    relative = quat_multiply(quat_conjugate(quat_normalize(q1)), quat_normalize(q2))
+    # atan2 keeps small angles exact where arccos of a dot product near 1 loses half the digits.
+    angle = 2 * np.arctan2(np.linalg.norm(relative[..., :3], axis=-1), np.abs(relative[..., 3]))
+    return float(angle) if np.ndim(angle) == 0 else angle
+
+
+def rotate(q: np.ndarray, vectors: np.ndarray) -> np.ndarray:
+    """Rotate ``(..., 3)`` vectors by ``(..., 4)`` quaternions."""
+    return np.einsum("...ij,...j->...i", quat_to_matrix(q), np.asarray(vectors, dtype=np.float64))
+
+
+def compose_poses(
+    position_a: np.ndarray, quat_a: np.ndarray, position_b: np.ndarray, quat_b: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """``T_a · T_b``: pose b expressed in frame a, mapped to a's parent frame. Returns
+    ``((..., 3) position, (..., 4) quaternion)``."""
+    position = np.asarray(position_a, dtype=np.float64) + rotate(quat_a, position_b)
+    return position, quat_normalize(quat_multiply(quat_a, quat_b))
+
+
+def tilt_cosine(q: np.ndarray) -> float | np.ndarray:
+    """(R·ẑ)·ẑ = 1 − 2(x² + y²) of a unit quaternion: the cosine of the object's tilt."""
+    x, y = np.moveaxis(quat_normalize(q), -1, 0)[:2]
+    value = 1.0 - 2.0 * (x * x + y * y)
+    return float(value) if np.ndim(value) == 0 else value
+
+
+def is_upright(q: np.ndarray) -> bool | np.ndarray:
+    """Tilt test of quirk Q1: (R·ẑ)·ẑ ≥ 0.99 (tilt ≤ ≈ 8.1°). Unlike the original's axis test, an
+    unrotated object is upright."""
+    value = np.asarray(tilt_cosine(q)) >= EPS_ALIGN
+    return bool(value) if value.ndim == 0 else value
+
+
+def did_move(
+    position_before: np.ndarray,
+    quat_before: np.ndarray,
+    position_after: np.ndarray,
+    quat_after: np.ndarray,
+) -> bool | np.ndarray:
+    """The disturbance test (§6): translation ≥ 0.05 m or rotation ≥ 5°. Broadcasts over ``(..., 3)``
+    positions and ``(..., 4)`` quaternions."""
+    shift = np.linalg.norm(np.asarray(position_after, float) - np.asarray(position_before, float), axis=-1)
+    moved = (shift >= DISTURBANCE_TRANSLATION) | (np.asarray(quat_angle(quat_before, quat_after)) >= DISTURBANCE_ROTATION)
+    return bool(moved) if np.ndim(moved) == 0 else moved
+
+
+# --------------------------------------------------------------------------------------------------
+# 2-D convex polygons
+# --------------------------------------------------------------------------------------------------
+
+
+def convex_hull_2d(points: np.ndarray) -> np.ndarray:
+    """Counter-clockwise convex hull ``(K, 2)`` of ``(M, 2)`` points (monotone chain; collinear
+    points dropped). Degenerate inputs give 1 or 2 vertices."""
+    pts = np.unique(np.round(np.asarray(points, dtype=np.float64), 12), axis=0)
+    if len(pts) <= 2:
+        return pts
+
+    def cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    lower: list[np.ndarray] = []
+    for p in pts:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
+            lower.pop()
+        lower.append(p)
+    upper: list[np.ndarray] = []
+    for p in pts[::-1]:
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
+            upper.pop()
+        upper.append(p)
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def _edge_normals(polygon: np.ndarray) -> np.ndarray:
+    """``(K, 2)`` normals of a polygon's edges (unnormalised; degenerate edges dropped)."""
+    edges = np.roll(polygon, -1, axis=0) - polygon
+    normals = np.stack((-edges[:, 1], edges[:, 0]), axis=1)
+    return normals[np.linalg.norm(normals, axis=1) > 1e-15]
+
+
+def polygons_overlap(polygon_a: np.ndarray, polygon_b: np.ndarray) -> bool:
+    """Separating-axis test for two convex polygons ``(K, 2)`` (a segment is a 2-vertex polygon).
+    Touching boundaries count as overlapping, like shapely's ``intersects``."""
+    a, b = np.asarray(polygon_a, dtype=np.float64), np.asarray(polygon_b, dtype=np.float64)
+    axes = [_edge_normals(a), _edge_normals(b)]
+    if len(a) == 2 and len(b) == 2:
+        # Two segments: also test the axes along them, or collinear disjoint segments would overlap.
+        axes.append(np.stack((a[1] - a[0], b[1] - b[0])))
+    normals = np.concatenate(axes)
+    if len(normals) == 0:
+        return bool(np.allclose(a[0], b[0]))
+    proj_a, proj_b = a @ normals.T, b @ normals.T
+    tol = 1e-12 * np.linalg.norm(normals, axis=1)
+    separated = (proj_a.max(axis=0) < proj_b.min(axis=0) - tol) | (proj_b.max(axis=0) < proj_a.min(axis=0) - tol)
+    return not bool(separated.any())
+
+
+def _point_segment_distances(points: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """``(P, S)`` distances from ``(P, 2)`` points to ``(S, 2)`` segments."""
+    d = ends - starts
+    length2 = np.maximum(np.sum(d * d, axis=1), 1e-30)
+    rel = points[:, None, :] - starts[None, :, :]
+    t = np.clip(np.sum(rel * d[None], axis=2) / length2[None], 0.0, 1.0)
+    closest = starts[None] + t[..., None] * d[None]
+    return np.linalg.norm(points[:, None, :] - closest, axis=2)
+
+
+def polygon_distance(polygon_a: np.ndarray, polygon_b: np.ndarray) -> float:
+    """Closest distance between two convex polygons ``(K, 2)``, metres; 0 when they overlap."""
+    a, b = np.asarray(polygon_a, dtype=np.float64), np.asarray(polygon_b, dtype=np.float64)
+    if polygons_overlap(a, b):
+        return 0.0
+    # Disjoint convex sets: the closest pair has a vertex of one on an edge of the other.
+    return float(
+        min(
+            _point_segment_distances(a, b, np.roll(b, -1, axis=0)).min(),
+            _point_segment_distances(b, a, np.roll(a, -1, axis=0)).min(),
+        )
+    )
+
+
+def grow_polygon(polygon: np.ndarray, margin: float) -> np.ndarray:
+    """Push every vertex ``margin`` metres away from the vertex centroid along each axis separately
+    (the original's ``nonblocking`` hull growth: v + sign(v − centre)·margin). ``(K, 2)``."""
+    poly = np.asarray(polygon, dtype=np.float64)
+    return poly + np.sign(poly - poly.mean(axis=0)) * margin
+
+
+def segment_intersects_polygon(start: np.ndarray, end: np.ndarray, polygon: np.ndarray) -> bool:
+    """Whether the segment ``start``–``end`` (``(2,)`` each) touches the convex ``(K, 2)`` polygon."""
+    segment = np.stack((np.asarray(start, dtype=np.float64), np.asarray(end, dtype=np.float64)))
+    return polygons_overlap(segment, polygon)
+
+
+# --------------------------------------------------------------------------------------------------
+# Objects in the world
+# --------------------------------------------------------------------------------------------------
+
+_BOX_SIGNS = np.array(list(itertools.product((-1.0, 1.0), repeat=3)))  # (8, 3)
+
+
+@lru_cache(maxsize=64)
+def _local_part_corners(spec: ObjectSpec) -> np.ndarray:
+    """``(P, 8, 3)`` corners of the convex parts in the object frame, metres."""
+    return np.stack(
+        [np.asarray(part.center) + 0.5 * _BOX_SIGNS * np.asarray(part.size) for part in spec.convex_parts()]
+    )
+
+
+@dataclass(frozen=True)
+class ObjectGeometry:
+    """An object's analytic geometry in a pose (world frame, metres).
+
+    Attributes:
+        name: object name.
+        spec: its specification.
+        position: ``(3,)`` origin.
+        quaternion: ``(4,)`` orientation, xyzw.
+        part_corners: ``(P, 8, 3)`` corners of each convex part.
+        aabb: ``(2, 3)`` exact world AABB ``[min, max]`` of the convex parts.
+        footprints: one counter-clockwise ``(K, 2)`` xy polygon per convex part (the projection).
+    """
+
+    name: str
+    spec: ObjectSpec
+    position: np.ndarray
+    quaternion: np.ndarray
+    part_corners: np.ndarray
+    aabb: np.ndarray
+    footprints: tuple[np.ndarray, ...]
+
+    @property
+    def min_z(self) -> float:
+        """Lowest point, metres."""
+        return float(self.aabb[0, 2])
+
+    @property
+    def max_z(self) -> float:
+        """Highest point, metres."""
+        return float(self.aabb[1, 2])
+
+    def bounding_box_footprint(self) -> np.ndarray:
+        """``(K, 2)`` xy projection of the object's whole rotated bounding box. For a box and the
+        rack it equals their single convex part; ``nonblocking`` also treats the hook as this one
+        hull (quirk Q5)."""
+        low, high = self.spec.local_bounds()
+        corners = (low + (high - low) * (_BOX_SIGNS + 1) / 2) @ quat_to_matrix(self.quaternion).T + self.position
+        return convex_hull_2d(corners[:, :2])
+
+
+def object_geometry(name: str, pose: ObjectPose, spec: ObjectSpec | None = None) -> ObjectGeometry:
+    """Analytic world geometry of ``name`` in ``pose``; ``spec`` defaults to ``OBJECTS[name]``."""
+    spec = spec if spec is not None else object_spec(name)
+    rotation = quat_to_matrix(pose.quaternion)
+    corners = _local_part_corners(spec) @ rotation.T + pose.position
+    flat = corners.reshape(-1, 3)
+    aabb = np.stack((flat.min(axis=0), flat.max(axis=0)))
+    footprints = tuple(convex_hull_2d(part[:, :2]) for part in corners)
+    return ObjectGeometry(name, spec, pose.position, pose.quaternion, corners, aabb, footprints)
+
+
+def world_aabb(name: str, pose: ObjectPose, spec: ObjectSpec | None = None) -> np.ndarray:
+    """``(2, 3)`` exact world AABB ``[min, max]`` of the object's convex parts in ``pose``, metres."""
+    return object_geometry(name, pose, spec).aabb
+
+
+def is_above(a: ObjectGeometry, b: ObjectGeometry) -> bool:
+    """above(a, b): min_z(aabb(a)) > max_z(aabb(b)) − 0.05."""
+    return a.min_z > b.max_z - EPS_AABB
+
+
+def is_intersecting(a: ObjectGeometry, b: ObjectGeometry) -> bool:
+    """intersecting(a, b): some xy projection of a convex part of a overlaps one of b."""
+    if np.any(a.aabb[0, :2] > b.aabb[1, :2]) or np.any(b.aabb[0, :2] > a.aabb[1, :2]):
+        return False  # the xy AABBs bound the footprints: cheap early reject
+    return any(polygons_overlap(pa, pb) for pa in a.footprints for pb in b.footprints)
+
+
+def closest_distance(a: ObjectGeometry, b: ObjectGeometry) -> float:
+    """Closest distance between two objects' convex parts, metres (0 when they overlap).
+
+    Each part is treated as the vertical prism footprint × [part min z, part max z]. For upright
+    parts that is the part itself and the distance is exact; for tilted parts the prism contains the
+    part, so the distance is a lower bound (``free`` then errs on the side of rejecting a sample).
+    Simulators may answer ``free`` with engine closest-point queries instead.
+    """
+    best = math.inf
+    z_a = np.stack((a.part_corners[..., 2].min(axis=1), a.part_corners[..., 2].max(axis=1)), axis=1)
+    z_b = np.stack((b.part_corners[..., 2].min(axis=1), b.part_corners[..., 2].max(axis=1)), axis=1)
+    for (za, pa), (zb, pb) in itertools.product(zip(z_a, a.footprints), zip(z_b, b.footprints)):
+        gap_z = max(0.0, za[0] - zb[1], zb[0] - za[1])
+        best = min(best, math.hypot(polygon_distance(pa, pb), gap_z))
+    return best
