@@ -16,13 +16,32 @@ from t2m_core.domain.primitives.base import (
     first_disturbed,
     is_truncated,
 )
+from t2m_core.domain.primitives.pick import Pick
+from t2m_core.domain.primitives.place import Place
+from t2m_core.domain.primitives.pull import Pull
+from t2m_core.domain.primitives.push import Push
+from t2m_core.domain.primitives.stop import Stop
 
-PRIMITIVES: dict[str, Primitive] = {}
-"""Primitive name -> specification (filled as the primitives land)."""
+PRIMITIVES: dict[str, Primitive] = {p.name: p for p in (Pick(), Place(), Pull(), Push(), Stop())}
+"""Primitive name -> specification with the published defaults (d_Pull = d_Push = 0.05 m)."""
+
+
+def get_primitive(name: str) -> Primitive:
+    """The primitive called ``name``; raises ``KeyError`` listing the known primitives."""
+    try:
+        return PRIMITIVES[name]
+    except KeyError:
+        raise KeyError(f"unknown primitive {name!r}; known primitives: {', '.join(PRIMITIVES)}") from None
 
 __all__ = [
     "FAILURES",
     "PRIMITIVES",
+    "Pick",
+    "Place",
+    "Pull",
+    "Push",
+    "Stop",
+    "get_primitive",
     "MotionKind",
     "MotionStep",
     "Outcome",

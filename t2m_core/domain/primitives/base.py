@@ -28,17 +28,13 @@ from enum import Enum
 
 import numpy as np
 
+from t2m_core.domain.constants import MAX_LIFT_HEIGHT
+from t2m_core.domain.geometry import did_move
 from t2m_core.domain.objects import ObjectKind, object_spec
 from t2m_core.domain.state import GeometricState
 
 SETTLE_TIMEOUT_S = 3.0
 """Longest "wait until stable" at the end of a primitive, seconds (§10.3 step 6)."""
-
-DISTURBANCE_TRANSLATION_M = 0.05
-"""A non-argument object moved at least this far (metres) since the primitive started: disturbed."""
-
-DISTURBANCE_ROTATION_RAD = float(np.deg2rad(5.0))
-"""... or rotated at least this much (radians, 5°)."""
 
 EXPLORATION_HEURISTIC_PROBABILITY = 0.9
 """Exploration sampler: probability of the noisy heuristic action instead of a uniform one (§10.1)."""
@@ -290,13 +286,27 @@ class Primitive(ABC):
         return f"<Primitive {self.name}>"
 
 
+def other_objects(state: GeometricState, arguments: Sequence[str], *, include_table: bool) -> tuple[str, ...]:
+    """The present objects that are not arguments, in state order; the static table only when asked
+    (it cannot be disturbed, but guarded motions may have to avoid touching it)."""
+    return tuple(
+        name
+        for name in state.objects
+        if name not in arguments and (include_table or object_spec(name).kind is not ObjectKind.TABLE)
+    )
+
+
+def lift_position(xy: np.ndarray) -> np.ndarray:
+    """``(3,)`` the waypoint at the lift height (0.40 m) directly above world ``xy``."""
+    return np.array([xy[0], xy[1], MAX_LIFT_HEIGHT])
+
+
 def first_disturbed(start_state: GeometricState, state: GeometricState, names: Sequence[str]) -> str | None:
     """``"disturbed"`` if any of ``names`` moved >= 0.05 m or rotated >= 5° between the two states
     (tableenv.md §6 ``did_move``), else ``None``. Objects missing from either state are skipped."""
-    from t2m_core.domain.geometry import did_move
-
     for name in names:
         if name in start_state.objects and name in state.objects:
-            if did_move(start_state.objects[name], state.objects[name]):
+            before, after = start_state.objects[name], state.objects[name]
+            if did_move(before.position, before.quaternion, after.position, after.quaternion):
                 return "disturbed"
     return None

@@ -1,0 +1,79 @@
+"""Pick(obj): grasp a box or the hook from above (tableenv.md §10.3)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from t2m_core.domain.constants import in_workspace
+from t2m_core.domain.geometry import quat_yaw, rotate, wrap_angle
+from t2m_core.domain.objects import ObjectKind, object_spec
+from t2m_core.domain.primitives.base import (
+    SETTLE_TIMEOUT_S,
+    MotionKind,
+    MotionStep,
+    Primitive,
+    lift_position,
+    other_objects,
+)
+from t2m_core.domain.state import GeometricState
+
+MOVABLE = frozenset({ObjectKind.BOX, ObjectKind.HOOK})
+
+
+class Pick(Primitive):
+    """Grasp ``obj`` at an offset in its own frame.
+
+    Action (physical): ``(x, y, z, θ)``: the grasp point in the object frame (metres) and the
+    gripper yaw relative to the object (radians). The grasp position is ``p_obj + R_obj·(x, y, z)``,
+    the gripper yaw ``yaw(obj) + θ``; the pre-pose is straight above at the lift height.
+    """
+
+    name = "pick"
+    argument_kinds = (MOVABLE,)
+    action_low = np.array([-0.2, -0.1, -0.05, -0.25 * np.pi])
+    action_high = np.array([0.2, 0.1, 0.05, 0.75 * np.pi])
+
+    def grasp_pose(self, state: GeometricState, obj: str, action: np.ndarray) -> tuple[np.ndarray, float]:
+        """``((3,) position in metres, yaw in radians)`` of the EE at the grasp, world frame."""
+        x, y, z, theta = self.to_physical(action)
+        pose = state.objects[obj]
+        position = pose.position + rotate(pose.quaternion, np.array([x, y, z]))
+        return position, wrap_angle(quat_yaw(pose.quaternion) + theta)
+
+    def precheck(self, state: GeometricState, arguments: Sequence[str], action: np.ndarray) -> str | None:
+        (obj,) = self.check_arguments(state, arguments)
+        x, y = state.objects[obj].position[:2]
+        return None if in_workspace(x, y) else "not_in_workspace"
+
+    def motion(self, state: GeometricState, arguments: Sequence[str], action: np.ndarray) -> tuple[MotionStep, ...]:
+        (obj,) = self.check_arguments(state, arguments)
+        grasp_position, yaw = self.grasp_pose(state, obj, action)
+        pre_position = lift_position(grasp_position)
+        bystanders = other_objects(state, arguments, include_table=False)
+        return (
+            MotionStep(MotionKind.MOVE, "pre_pose", pre_position, yaw, disturbance_objects=bystanders),
+            MotionStep(
+                MotionKind.DESCEND,
+                "grasp_pose",
+                grasp_position,
+                yaw,
+                contact_objects=other_objects(state, arguments, include_table=True),
+            ),
+            MotionStep(MotionKind.GRASP, "grasp", grasp_object=obj),
+            MotionStep(MotionKind.LIFT, "lift", pre_position, yaw, disturbance_objects=bystanders),
+            MotionStep(MotionKind.SETTLE, "settle", timeout_s=SETTLE_TIMEOUT_S),
+        )
+
+    def heuristic_physical(self, state: GeometricState, arguments: Sequence[str], rng: np.random.Generator) -> np.ndarray:
+        """Box: a centred grasp (all zeros). Hook: with probability l/(l + h) a handle grasp at a
+        uniform x along it (θ = 0), otherwise a head grasp at a uniform y (θ = π/2)."""
+        spec = object_spec(arguments[0])
+        if spec.kind is not ObjectKind.HOOK or spec.hook is None:
+            return np.zeros(4)
+        hook = spec.hook
+        handle, head = hook.footprint()
+        if rng.random() < hook.handle_length / (hook.handle_length + hook.head_length):
+            return np.array([rng.uniform(self.action_low[0], self.action_high[0]), handle.center[1], 0.0, 0.0])
+        return np.array([head.center[0], rng.uniform(self.action_low[1], self.action_high[1]), 0.0, 0.5 * np.pi])

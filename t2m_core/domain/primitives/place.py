@@ -1,0 +1,121 @@
+"""Place(obj, target): put the held object down on the table or the rack (tableenv.md §10.4)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from t2m_core.domain.constants import (
+    MAX_LIFT_HEIGHT,
+    TABLE_PLACE_X_RANGE,
+    TABLE_Y_MAX,
+    TABLE_Y_MIN,
+    TABLE_Z_MAX,
+    in_workspace,
+)
+from t2m_core.domain.geometry import is_above, is_upright, object_geometry, quat_yaw, rotate, wrap_angle
+from t2m_core.domain.objects import ObjectKind, object_spec
+from t2m_core.domain.primitives.base import (
+    SETTLE_TIMEOUT_S,
+    MotionKind,
+    MotionStep,
+    Outcome,
+    Primitive,
+    StepContext,
+    lift_position,
+    other_objects,
+)
+from t2m_core.domain.primitives.pick import MOVABLE
+from t2m_core.domain.state import GeometricState
+
+MAX_DROP_DISTANCE = 0.05
+"""Before release the held object must be within this closest distance of the target, metres."""
+
+SUPPORTS = frozenset({ObjectKind.TABLE, ObjectKind.RACK})
+
+
+def place_rectangle(target: str) -> np.ndarray:
+    """``(2, 2)`` ``[[x_min, y_min], [x_max, y_max]]`` of the target's placement rectangle in its own
+    frame, metres: the rack's top plate, or the table strip x ∈ [0.28, 0.70] (quirk Q20)."""
+    spec = object_spec(target)
+    if spec.kind is ObjectKind.TABLE:
+        return np.array([[TABLE_PLACE_X_RANGE[0], TABLE_Y_MIN], [TABLE_PLACE_X_RANGE[1], TABLE_Y_MAX]])
+    low, high = spec.local_bounds()
+    return np.array([low[:2], high[:2]])
+
+
+class Place(Primitive):
+    """Release the held ``obj`` above ``target``.
+
+    Action (physical): ``(x, y, z, θ)``: x, y ∈ [−1, 1] a location normalised over the target's
+    placement rectangle (:func:`place_rectangle`), z the EE height above the support surface
+    (metres; the table's and the rack's origins are their top surfaces), θ the gripper yaw relative
+    to the target (radians).
+    """
+
+    name = "place"
+    argument_kinds = (MOVABLE, SUPPORTS)
+    action_low = np.array([-1.0, -1.0, 0.0, -0.25 * np.pi])
+    action_high = np.array([1.0, 1.0, 0.1, 0.75 * np.pi])
+
+    def release_pose(self, state: GeometricState, target: str, action: np.ndarray) -> tuple[np.ndarray, float]:
+        """``((3,) position in metres, yaw in radians)`` of the EE at the release, world frame."""
+        x, y, z, theta = self.to_physical(action)
+        rectangle = place_rectangle(target)
+        fraction = (np.array([x, y]) + 1.0) / 2.0
+        local_xy = rectangle[0] + fraction * (rectangle[1] - rectangle[0])
+        pose = state.objects[target]
+        position = pose.position + rotate(pose.quaternion, np.array([local_xy[0], local_xy[1], z]))
+        return position, wrap_angle(quat_yaw(pose.quaternion) + theta)
+
+    def precheck(self, state: GeometricState, arguments: Sequence[str], action: np.ndarray) -> str | None:
+        obj, target = self.check_arguments(state, arguments)
+        if state.held != obj:
+            return "not_held"
+        position, _ = self.release_pose(state, target, action)
+        return None if in_workspace(position[0], position[1]) else "not_in_workspace"
+
+    def motion(self, state: GeometricState, arguments: Sequence[str], action: np.ndarray) -> tuple[MotionStep, ...]:
+        obj, target = self.check_arguments(state, arguments)
+        release_position, yaw = self.release_pose(state, target, action)
+        pre_position = lift_position(release_position)
+        bystanders = other_objects(state, arguments, include_table=False)
+        # Touching the support while descending fails, so the object is released slightly above it.
+        guarded = (target, *other_objects(state, arguments, include_table=True))
+        return (
+            MotionStep(MotionKind.MOVE, "pre_pose", pre_position, yaw, disturbance_objects=bystanders),
+            MotionStep(
+                MotionKind.DESCEND, "release_pose", release_position, yaw, contact_objects=guarded, check=_close_to_target
+            ),
+            MotionStep(MotionKind.RELEASE, "release", disturbance_objects=bystanders),
+            MotionStep(MotionKind.LIFT, "retreat", pre_position, yaw, disturbance_objects=bystanders),
+            MotionStep(MotionKind.SETTLE, "settle", timeout_s=SETTLE_TIMEOUT_S),
+        )
+
+    def outcome(self, start_state: GeometricState, end_state: GeometricState, arguments: Sequence[str]) -> Outcome:
+        """Below the table: truncated; not upright or not above the target: failed; else success."""
+        obj, target = arguments
+        pose = end_state.objects[obj]
+        if pose.position[2] < TABLE_Z_MAX:
+            return Outcome.failed("below_table")
+        if not is_upright(pose.quaternion):
+            return Outcome.failed("not_upright")
+        if not is_above(object_geometry(obj, pose), object_geometry(target, end_state.objects[target])):
+            return Outcome.failed("not_on_target")
+        return Outcome.ok()
+
+    def heuristic_physical(self, state: GeometricState, arguments: Sequence[str], rng: np.random.Generator) -> np.ndarray:
+        """Uniform, except the release height at which the held object's bottom would touch the
+        surface: z = 0.40 − z_obj + size_z/2, clipped to [0, 0.1]."""
+        obj = arguments[0]
+        action = rng.uniform(self.action_low, self.action_high)
+        release_height = MAX_LIFT_HEIGHT - state.objects[obj].position[2] + 0.5 * object_spec(obj).size[2]
+        action[2] = np.clip(release_height, self.action_low[2], self.action_high[2])
+        return action
+
+
+def _close_to_target(context: StepContext) -> str | None:
+    """Fail with ``"too_high"`` if the held object would drop more than 0.05 m onto the target."""
+    obj, target = context.arguments
+    return None if context.distance(obj, target) <= MAX_DROP_DISTANCE else "too_high"
