@@ -20,6 +20,7 @@ API (small and stable; everything else is private)::
 
     isolated = Registry()                                      # empty, for tests: no entry points
     isolated.register_plugin(my_hooks_module, name="mine")
+    set_registry(isolated)                                     # make it the process-wide one
 
 Kinds are the keys of :data:`t2m_core.hookspecs.REGISTRATION_HOOKS`: ``simulator``,
 ``skill_library``, ``feasibility_planner``, ``language_model``, ``scene_parser``, ``task_planner``.
@@ -37,7 +38,6 @@ import importlib
 import importlib.metadata
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from functools import cache
 from types import ModuleType
 from typing import Any
 
@@ -377,12 +377,27 @@ def _owning_distribution(module_name: str) -> tuple[str, str]:
         return owners[0], ""
 
 
-@cache
+_default_registry: Registry | None = None
+
+
 def get_registry() -> Registry:
     """The process-wide registry, loaded from entry points and ``T2M_PLUGINS`` on first use."""
-    return Registry.from_entry_points()
+    global _default_registry
+    if _default_registry is None:
+        _default_registry = Registry.from_entry_points()
+    return _default_registry
+
+
+def set_registry(registry: Registry | None) -> Registry | None:
+    """Make ``registry`` the process-wide one (``None``: reload on next use); return the previous one.
+
+    Tests use it to run CLI commands against an isolated registry.
+    """
+    global _default_registry
+    previous, _default_registry = _default_registry, registry
+    return previous
 
 
 def reset_registry() -> None:
-    """Forget the cached registry (the next :func:`get_registry` reloads); used by tests."""
-    get_registry.cache_clear()
+    """Forget the process-wide registry: the next :func:`get_registry` reloads it from entry points."""
+    set_registry(None)
