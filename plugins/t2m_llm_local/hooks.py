@@ -1,0 +1,45 @@
+"""Registers the ``local`` language model (import-light: llama_cpp is imported by the factory)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from t2m_core.hookspecs import hookimpl
+from t2m_core.plugin_specs import LanguageModelSpec
+
+
+class LocalModelOptions(BaseModel):
+    """Options of the embedded llama.cpp model.
+
+    Attributes:
+        model_path: a GGUF file; ``None`` uses the embedded Qwen2.5-Coder-0.5B-Instruct Q4_K_M,
+            assembled once into the t2m cache from its PyPI chunk packages.
+        n_ctx: context window in tokens (a full planning prompt with 10 examples is about 3,000).
+        n_threads: CPU threads; ``None`` = all cores, at most 8.
+        n_batch: tokens per llama.cpp decode call.
+        seed: sampling seed (only used at temperature > 0).
+    """
+
+    model_config = ConfigDict(extra="forbid")
+
+    model_path: Path | None = Field(default=None, description="GGUF file; unset = the embedded default model")
+    n_ctx: int = Field(default=8192, ge=256, le=131072, description="context window (tokens)")
+    n_threads: int | None = Field(default=None, ge=1, le=256, description="CPU threads (unset: all cores, max 8)")
+    n_batch: int = Field(default=512, ge=8, le=8192, description="tokens per decode call")
+    seed: int = Field(default=0, ge=0, description="sampling seed for temperature > 0")
+
+
+@hookimpl
+def t2m_register_language_models() -> list[LanguageModelSpec]:
+    """The embedded local backend."""
+    return [
+        LanguageModelSpec(
+            name="local",
+            aliases=("embedded", "llama-cpp"),
+            factory="t2m_llm_local.llama:LocalLanguageModel",
+            options=LocalModelOptions,
+            summary="Embedded Qwen2.5-Coder-0.5B (or any GGUF file) in-process via llama.cpp; exact scoring",
+        )
+    ]

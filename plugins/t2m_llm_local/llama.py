@@ -1,0 +1,245 @@
+"""The embedded language model: a GGUF model run in-process by llama.cpp (llama-cpp-python).
+
+Scoring is exact (text2motion.md §11.3): the shared context is evaluated once, and each candidate's
+tokens are decoded on top of that cached prefix with logits for every position; ℓ_k is the sum of
+the log-softmax of the candidate's tokens. Tokens are found by byte offsets in the tokenization of
+the *full* string (context + candidate), never by tokenizing the candidate alone, because the
+tokenizer merges the leading space into the next token. (llama-cpp-python 0.3.36's echoed prompt
+log-probabilities are wrong, so they are not used.)
+
+A model file is loaded once per process and shared by every :class:`LocalLanguageModel` that names
+the same file and context settings.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import threading
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from t2m_core.errors import ModelFileError
+from t2m_core.protocols import LanguageModelCapabilities
+
+from t2m_llm_local.hooks import LocalModelOptions
+from t2m_llm_local.model_files import default_model_path
+
+log = logging.getLogger(__name__)
+
+_MODELS: dict[tuple[Any, ...], Any] = {}
+_MODELS_LOCK = threading.Lock()
+
+
+def _load_llama(path: Path, n_ctx: int, n_threads: int, n_batch: int) -> Any:
+    """The process-wide llama.cpp model for these settings (loaded on first use)."""
+    key = (str(path), n_ctx, n_threads, n_batch)
+    with _MODELS_LOCK:
+        if key not in _MODELS:
+            from llama_cpp import Llama
+
+            start = time.perf_counter()
+            try:
+                _MODELS[key] = Llama(
+                    model_path=str(path),
+                    n_ctx=n_ctx,
+                    n_batch=n_batch,
+                    n_ubatch=n_batch,
+                    n_threads=n_threads,
+                    n_threads_batch=n_threads,
+                    logits_all=False,
+                    verbose=False,
+                )
+            except ValueError as error:  # llama-cpp-python reports unreadable files as ValueError
+                raise ModelFileError(
+                    f"llama.cpp could not load {path}: {error}", hint="pass a valid GGUF file as model_path"
+                ) from error
+            log.info("loaded %s in %.2f s", path.name, time.perf_counter() - start)
+        return _MODELS[key]
+
+
+def _log_softmax(logits: np.ndarray) -> np.ndarray:
+    """Row-wise log-softmax of ``(N, V) float32`` logits, computed in float64."""
+    values = logits.astype(np.float64)
+    values -= values.max(axis=1, keepdims=True)
+    return values - np.log(np.exp(values).sum(axis=1, keepdims=True))
+
+
+class LocalLanguageModel:
+    """In-process llama.cpp backend with exact candidate scoring and GBNF-constrained decoding.
+
+    Args:
+        options: validated :class:`~t2m_llm_local.hooks.LocalModelOptions`.
+    """
+
+    capabilities = LanguageModelCapabilities(exact_scoring=True, grammar=True)
+
+    def __init__(self, options: LocalModelOptions) -> None:
+        self.options = options
+        if options.model_path is None:
+            self.model_path = default_model_path()
+        else:
+            self.model_path = Path(options.model_path).expanduser()
+            if not self.model_path.is_file():
+                raise ModelFileError(
+                    f"model file {self.model_path} does not exist",
+                    hint="give the path of a GGUF file, or leave model_path unset for the embedded model",
+                )
+        threads = options.n_threads or min(os.cpu_count() or 1, 8)
+        start = time.perf_counter()
+        self._llama = _load_llama(self.model_path, options.n_ctx, threads, options.n_batch)
+        self.load_time_s = time.perf_counter() - start
+        self._lock = threading.Lock()
+        self._grammars: dict[str, Any] = {}
+        self.name = f"local:{self.model_path.name}"
+
+    # ------------------------------------------------------------------------------------------
+    # generation
+    # ------------------------------------------------------------------------------------------
+
+    def _grammar(self, grammar: str | None) -> Any:
+        if grammar is None:
+            return None
+        if grammar not in self._grammars:
+            from llama_cpp import LlamaGrammar
+
+            self._grammars[grammar] = LlamaGrammar.from_string(grammar, verbose=False)
+        return self._grammars[grammar]
+
+    def complete(
+        self,
+        prompt: str,
+        *,
+        max_tokens: int = 256,
+        stop: Sequence[str] = (),
+        temperature: float = 0.0,
+        n: int = 1,
+        grammar: str | None = None,
+    ) -> list[str]:
+        """``n`` completions; at temperature 0 decoding is greedy, so one is computed and repeated."""
+        self._check_length(prompt, max_tokens)
+        samples = 1 if temperature == 0 else n
+        texts = []
+        with self._lock:
+            for sample in range(samples):
+                result = self._llama.create_completion(
+                    prompt,
+                    max_tokens=max_tokens,
+                    stop=list(stop) or None,
+                    temperature=temperature,
+                    top_p=1.0,
+                    top_k=0 if temperature > 0 else 40,
+                    min_p=0.0,
+                    repeat_penalty=1.0,
+                    seed=self.options.seed + sample,
+                    grammar=self._grammar(grammar),
+                )
+                texts.append(result["choices"][0]["text"])
+        return texts * n if samples == 1 else texts
+
+    def _check_length(self, prompt: str, max_tokens: int) -> None:
+        tokens = len(self._llama.tokenize(prompt.encode("utf-8"), add_bos=False, special=False))
+        if tokens + max_tokens > self.options.n_ctx:
+            raise ModelFileError(
+                f"prompt of {tokens} tokens + {max_tokens} new tokens exceeds the context of {self.options.n_ctx}",
+                hint="raise the local model's n_ctx option (--set llm.options.n_ctx=8192)",
+            )
+
+    # ------------------------------------------------------------------------------------------
+    # exact scoring
+    # ------------------------------------------------------------------------------------------
+
+    def _token_byte_ends(self, tokens: Sequence[int]) -> list[int]:
+        """Cumulative byte length of the detokenized text after each token."""
+        ends, total = [], 0
+        for token in tokens:
+            total += len(self._llama.detokenize([token]))
+            ends.append(total)
+        return ends
+
+    def _eval_prefix(self, prefix: Sequence[int]) -> None:
+        """Make the KV cache hold exactly ``prefix``, reusing whatever leading part it already holds."""
+        llama = self._llama
+        cached = llama.n_tokens
+        reuse = 0
+        held = llama.input_ids
+        limit = min(cached, len(prefix))
+        while reuse < limit and held[reuse] == prefix[reuse]:
+            reuse += 1
+        llama.n_tokens = reuse
+        if reuse < len(prefix):
+            llama.eval(list(prefix[reuse:]))
+        else:
+            llama._ctx.kv_cache_seq_rm(-1, reuse, -1)
+
+    def score(self, prompt: str, candidates: Sequence[str]) -> list[float]:
+        """ℓ_k = Σ log p(token | prompt, earlier tokens) over the tokens of each candidate.
+
+        ``prompt`` ends where the candidate text begins (``...Executed action: ``), so the leading
+        space belongs to the prompt's last characters or is merged into the candidate's first token,
+        whichever the tokenizer does; only tokens that cover candidate bytes are summed.
+        """
+        if not candidates:
+            return []
+        llama = self._llama
+        boundary = len(prompt.encode("utf-8"))
+        full = [llama.tokenize((prompt + candidate).encode("utf-8"), add_bos=False, special=False) for candidate in candidates]
+        for candidate, tokens in zip(candidates, full, strict=True):
+            if len(tokens) + 1 > self.options.n_ctx:
+                raise ModelFileError(
+                    f"scoring prompt for {candidate!r} has {len(tokens)} tokens, more than the context of {self.options.n_ctx}",
+                    hint="raise the local model's n_ctx option",
+                )
+        # Shared prefix: tokens common to every full tokenization that end before the candidate.
+        first = full[0]
+        common = min(len(tokens) for tokens in full)
+        for tokens in full[1:]:
+            common = next((index for index in range(common) if tokens[index] != first[index]), common)
+        ends = self._token_byte_ends(first[:common])
+        shared = next((index for index, end in enumerate(ends) if end > boundary), common)
+        if shared == 0:
+            raise ValueError("scoring needs a non-empty context before the candidates")
+        # Evaluate all but the last shared token once; each candidate batch re-decodes that token
+        # so its logits predict the candidate's first token.
+        base = shared - 1
+        scores = []
+        with self._lock:
+            self._eval_prefix(first[:base])
+            base_bytes = ends[base - 1] if base else 0
+            for tokens in full:
+                scores.append(self._score_suffix(tokens, base, boundary - base_bytes))
+            llama.n_tokens = base
+            llama._ctx.kv_cache_seq_rm(-1, base, -1)
+            # The live logits now belong to a candidate, not to the cached prefix.
+            llama._requires_eval = True
+        return scores
+
+    def _score_suffix(self, tokens: Sequence[int], base: int, boundary: int) -> float:
+        """Decode ``tokens[base:]`` on the cached ``tokens[:base]`` and sum the candidate's log-probs.
+
+        ``boundary`` is the candidate's first byte, counted from the start of ``tokens[base]``.
+        """
+        llama = self._llama
+        suffix = list(tokens[base:])
+        if len(suffix) > llama.n_batch:
+            raise ValueError(f"a candidate of {len(suffix)} tokens is longer than the batch ({llama.n_batch})")
+        llama._ctx.kv_cache_seq_rm(-1, base, -1)
+        llama._batch.set_batch(batch=suffix, n_past=base, logits_all=True)
+        # The last token predicts nothing we score; skip its (151k-wide) logits row where possible.
+        if len(suffix) > 1:
+            llama._batch.batch.logits[len(suffix) - 1] = False
+        llama._ctx.decode(llama._batch)
+        rows = max(len(suffix) - 1, 1)
+        logits = np.ctypeslib.as_array(llama._ctx.get_logits(), shape=(rows, llama.n_vocab()))
+        logprobs = _log_softmax(logits)
+        ends = self._token_byte_ends(suffix)
+        total = 0.0
+        # Row i predicts suffix token i + 1.
+        for row in range(len(suffix) - 1):
+            if ends[row + 1] > boundary:
+                total += float(logprobs[row, suffix[row + 1]])
+        return total
