@@ -1,0 +1,404 @@
+"""The symbolic side of the four skills: signatures, calls, parsing, validity, preconditions and
+effects on symbolic states, and the enumerations of skill-data generation (tableenv.md §11.1-§11.2,
+text2motion.md §2.2, §9.2, §10.9).
+
+Symbolic states here are sets of :class:`Proposition` (on/under/inhand plus, where a rule needs it,
+zone propositions such as ``beyondworkspace(rack)``).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+from t2m_core.domain.literals import (
+    LiteralSyntaxError,
+    extract_first_list,
+    format_string_list,
+    parse_call,
+    parse_string_lists,
+)
+from t2m_core.domain.objects import OBJECTS, ObjectKind, object_spec
+from t2m_core.domain.predicates import Proposition, canonical_order
+from t2m_core.errors import T2MError
+
+MOVABLE = frozenset({ObjectKind.BOX, ObjectKind.HOOK})
+"""Types a robot can grasp."""
+UNMOVABLE = frozenset({ObjectKind.TABLE, ObjectKind.RACK})
+"""Supports that never move."""
+BOX = frozenset({ObjectKind.BOX})
+TOOL = frozenset({ObjectKind.HOOK})
+RECEPTACLE = frozenset({ObjectKind.RACK})
+
+
+class SkillError(T2MError, ValueError):
+    """A skill call that cannot be parsed, names an unknown skill or object, or has the wrong
+    number or types of arguments."""
+
+
+@dataclass(frozen=True)
+class SkillParameter:
+    """One argument of a skill.
+
+    Attributes:
+        name: its name in the signature the language model reads (``"a"``, ``"hook"``).
+        kinds: object types it accepts (symbolic validity, §11.2).
+        role: a few words for error messages (``"a movable object"``).
+    """
+
+    name: str
+    kinds: frozenset[ObjectKind]
+    role: str
+
+
+@dataclass(frozen=True)
+class SkillSignature:
+    """A skill's language-level signature, e.g. ``place(a, b)``."""
+
+    name: str
+    parameters: tuple[SkillParameter, ...]
+    summary: str
+
+    @property
+    def arity(self) -> int:
+        """Number of arguments."""
+        return len(self.parameters)
+
+    def __str__(self) -> str:
+        return f"{self.name}({', '.join(p.name for p in self.parameters)})"
+
+
+SKILLS: dict[str, SkillSignature] = {
+    s.name: s
+    for s in (
+        # One argument everywhere (quirk Q12): the support object is not an argument of pick.
+        SkillSignature("pick", (SkillParameter("a", MOVABLE, "a movable object (box or hook)"),), "grasp a and lift it"),
+        SkillSignature(
+            "place",
+            (
+                SkillParameter("a", MOVABLE, "a movable object (box or hook)"),
+                SkillParameter("b", UNMOVABLE, "a support (table or rack)"),
+            ),
+            "put the held a onto b",
+        ),
+        SkillSignature(
+            "pull",
+            (SkillParameter("a", BOX, "a box"), SkillParameter("hook", TOOL, "the tool (hook)")),
+            "pull a toward the robot with the held hook",
+        ),
+        SkillSignature(
+            "push",
+            (
+                SkillParameter("a", BOX, "a box"),
+                SkillParameter("hook", TOOL, "the tool (hook)"),
+                SkillParameter("rack", RECEPTACLE, "a receptacle (rack)"),
+            ),
+            "push a away from the robot, under the rack, with the held hook",
+        ),
+    )
+}
+"""The four TableEnv skills, in the order the prompts list them (index by name, never position: Q11)."""
+
+STOP = SkillSignature("stop", (), "end the episode (myopic baselines only)")
+"""``stop()``, accepted by the parsers only with ``allow_stop=True``."""
+
+
+@dataclass(frozen=True, order=True)
+class SkillCall:
+    """A grounded skill, e.g. ``place(red_box, rack)``."""
+
+    name: str
+    args: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "args", tuple(self.args))
+
+    def __str__(self) -> str:
+        return f"{self.name}({', '.join(self.args)})"
+
+    @property
+    def signature(self) -> SkillSignature:
+        """The skill's signature; raises :class:`SkillError` for an unknown skill."""
+        if self.name == STOP.name:
+            return STOP
+        try:
+            return SKILLS[self.name]
+        except KeyError:
+            raise SkillError(f"unknown skill {self.name!r} in {self}", f"use one of: {', '.join(SKILLS)}") from None
+
+
+# --------------------------------------------------------------------------------------------------
+# Parsing and validity
+# --------------------------------------------------------------------------------------------------
+
+
+def parse_skill_call(text: str, object_names: Sequence[str] | None = None, *, allow_stop: bool = False) -> SkillCall:
+    """Parse ``"place(red_box,rack)"`` into a :class:`SkillCall` (INST of text2motion.md §9.2).
+
+    The skill name is lower-cased; spacing is free. Checks the skill exists, the number of
+    arguments, that arguments are not repeated and, given ``object_names``, that every argument is a
+    scene object. Argument *types* are not checked here (``pick(table)`` parses; the Q-values and the
+    OOD detector judge it): see :func:`check_argument_types`.
+
+    Raises:
+        SkillError: naming the problem and the valid choices.
+    """
+    try:
+        name, args = parse_call(text, "skill call")
+    except LiteralSyntaxError as error:
+        raise SkillError(f"cannot parse the skill call: {error.message}", error.hint) from None
+    call = SkillCall(name.lower(), args)
+    problems = syntax_problems(call, object_names, allow_stop=allow_stop)
+    if problems:
+        raise SkillError(f"invalid skill call {call}: {'; '.join(problems)}", _signature_hint(allow_stop))
+    return call
+
+
+def parse_skill_sequence(
+    text: str,
+    object_names: Sequence[str] | None = None,
+    *,
+    allow_stop: bool = False,
+    extract: bool = False,
+) -> tuple[SkillCall, ...]:
+    """Parse a Python/JSON list of skill-call strings, e.g. ``"['pick(a)', 'place(a, rack)']"``.
+
+    Args:
+        text: the list (quotes, whitespace, trailing commas and a code fence are accepted).
+        object_names: the scene's objects, to check arguments against.
+        allow_stop: accept ``stop()``.
+        extract: take the first bracketed list out of surrounding prose.
+
+    Raises:
+        SkillError: naming the offending entry.
+    """
+    try:
+        value = parse_string_lists(extract_first_list(text) if extract else text)
+    except LiteralSyntaxError as error:
+        raise SkillError(f"cannot parse the skill sequence: {error.message}", "write e.g. ['pick(a)', 'place(a, b)']") from None
+    calls = []
+    for index, entry in enumerate(value, start=1):
+        if not isinstance(entry, str):
+            raise SkillError(f"skill sequence entry {index} is a list; expected a skill-call string")
+        try:
+            calls.append(parse_skill_call(entry, object_names, allow_stop=allow_stop))
+        except SkillError as error:
+            raise SkillError(f"skill sequence entry {index}: {error.message}", error.hint) from None
+    return tuple(calls)
+
+
+def format_skill_sequence(calls: Iterable[SkillCall]) -> str:
+    """``['pick(a)', 'place(a, b)']``, as the prompts write it."""
+    return format_string_list([str(c) for c in calls])
+
+
+def _signature_hint(allow_stop: bool) -> str:
+    signatures = [str(s) for s in SKILLS.values()] + ([str(STOP)] if allow_stop else [])
+    return f"available skills: {', '.join(signatures)}"
+
+
+def syntax_problems(
+    call: SkillCall, object_names: Sequence[str] | None = None, *, allow_stop: bool = False
+) -> list[str]:
+    """What makes ``call`` syntactically invalid (unknown skill, arity, repeated or unknown
+    arguments); empty when it is fine."""
+    if call.name == STOP.name and allow_stop:
+        return [] if not call.args else ["stop() takes no arguments"]
+    if call.name not in SKILLS:
+        return [f"unknown skill {call.name!r}"]
+    signature = SKILLS[call.name]
+    problems = []
+    if len(call.args) != signature.arity:
+        problems.append(f"{call.name} takes {signature.arity} argument(s) ({signature}), got {len(call.args)}")
+    repeated = sorted({a for a in call.args if call.args.count(a) > 1})
+    if repeated:
+        problems.append(f"repeated argument(s) {', '.join(repeated)}")
+    if object_names is not None:
+        unknown = [a for a in call.args if a not in object_names]
+        if unknown:
+            problems.append(f"unknown object(s) {', '.join(unknown)}; scene objects: {', '.join(object_names)}")
+    return problems
+
+
+def check_argument_types(call: SkillCall) -> list[str]:
+    """Argument-type problems of a syntactically valid call (§11.2), e.g.
+    ``["pick: table is not a movable object (box or hook)"]``; empty when the types fit."""
+    problems = []
+    for arg, parameter in zip(call.args, call.signature.parameters):
+        kind = OBJECTS[arg].kind if arg in OBJECTS else None
+        if kind not in parameter.kinds:
+            problems.append(f"{call.name}: {arg} is not {parameter.role}")
+    return problems
+
+
+def validate_skill_call(call: SkillCall, object_names: Sequence[str], *, check_types: bool = True) -> None:
+    """Raise :class:`SkillError` listing every syntax (and, by default, argument-type) problem."""
+    problems = syntax_problems(call, object_names)
+    if not problems and check_types:
+        problems = check_argument_types(call)
+    if problems:
+        raise SkillError(f"invalid skill call {call}: {'; '.join(problems)}", _signature_hint(False))
+
+
+# --------------------------------------------------------------------------------------------------
+# Preconditions and effects on symbolic states (§11.2)
+# --------------------------------------------------------------------------------------------------
+
+SymbolicFacts = frozenset[Proposition]
+
+
+def _kind(name: str) -> ObjectKind:
+    return object_spec(name).kind
+
+
+def _facts(state: Iterable[Proposition | str]) -> SymbolicFacts:
+    return frozenset(Proposition.coerce(p) for p in state)
+
+
+def precondition_problems(call: SkillCall, state: Iterable[Proposition | str]) -> list[str]:
+    """Why ``call`` is not a symbolically valid grounding in ``state`` (tableenv.md §11.2); empty
+    when it is valid. Argument types are part of validity."""
+    facts = _facts(state)
+    problems = syntax_problems(call) or check_argument_types(call)
+    if problems:
+        return problems
+    held = [p.args[0] for p in facts if p.predicate == "inhand"]
+    a = call.args[0]
+    if call.name == "pick":
+        if held:
+            problems.append(f"{held[0]} is already in hand")
+        if not any(p.predicate == "on" and p.args[0] == a and _kind(p.args[1]) in UNMOVABLE for p in facts):
+            problems.append(f"{a} is not on the table or the rack")
+    elif call.name == "place":
+        if Proposition("inhand", (a,)) not in facts:
+            problems.append(f"{a} is not in hand")
+    else:  # pull, push
+        tool = call.args[1]
+        if Proposition("inhand", (tool,)) not in facts:
+            problems.append(f"{tool} is not in hand")
+        if Proposition("on", (a, "table")) not in facts:
+            problems.append(f"{a} is not on the table")
+        if call.name == "push":
+            rack = call.args[2]
+            if Proposition("under", (a, rack)) in facts:
+                problems.append(f"{a} is already under {rack}")
+            if Proposition("beyondworkspace", (rack,)) not in facts:
+                problems.append(f"{rack} is not beyond the workspace")
+    return problems
+
+
+def is_valid_grounding(call: SkillCall, state: Iterable[Proposition | str]) -> bool:
+    """Whether ``call`` is a symbolically valid grounding in ``state`` (§11.2)."""
+    return not precondition_problems(call, state)
+
+
+def apply_effects(call: SkillCall, state: Iterable[Proposition | str]) -> SymbolicFacts:
+    """The symbolic state after ``call`` succeeds: pick → inhand(a) (a leaves its support);
+    place → on(a, b); pull keeps on(a, table); push keeps on(a, table) and adds under(a, rack).
+    Preconditions are not checked (see :func:`precondition_problems`)."""
+    facts = set(_facts(state))
+    a = call.args[0] if call.args else None
+    if call.name == "pick":
+        facts = {p for p in facts if not (p.predicate in ("on", "under") and p.args[0] == a)}
+        facts.add(Proposition("inhand", (a,)))
+    elif call.name == "place":
+        facts.discard(Proposition("inhand", (a,)))
+        facts.add(Proposition("on", call.args))
+    elif call.name == "push":
+        facts.add(Proposition("under", (a, call.args[2])))
+    return frozenset(facts)
+
+
+# --------------------------------------------------------------------------------------------------
+# Enumerations of skill-data generation (§11.1, §11.2)
+# --------------------------------------------------------------------------------------------------
+
+DATA_MOVABLES: tuple[str, ...] = ("hook", "red_box", "blue_box", "yellow_box", "cyan_box")
+"""The five movable objects of the data-generation scene, in enumeration order."""
+
+
+@dataclass(frozen=True)
+class SymbolicState:
+    """One enumerated symbolic state of skill-data generation.
+
+    Attributes:
+        objects: present objects in observation order (table, rack, then present movables).
+        propositions: its propositions in canonical order (aligned, poslimit, zone, on, inhand).
+    """
+
+    objects: tuple[str, ...]
+    propositions: tuple[Proposition, ...]
+
+    @property
+    def facts(self) -> SymbolicFacts:
+        """The propositions as a set."""
+        return frozenset(self.propositions)
+
+    @property
+    def rack_zone(self) -> str:
+        """``"inworkspace"`` or ``"beyondworkspace"``."""
+        return next(p.predicate for p in self.propositions if p.args == ("rack",) and p.predicate.endswith("workspace"))
+
+
+def enumerate_symbolic_states() -> tuple[SymbolicState, ...]:
+    """The 1 296 symbolic states of §11.1: each movable absent, in hand, on the table or on the rack
+    (at most one in hand: 648 assignments), times the rack in or beyond the workspace. The rack is
+    always on the table, aligned and poslimit."""
+    states = []
+    for zone in ("inworkspace", "beyondworkspace"):
+        for assignment in itertools.product(("absent", "inhand", "table", "rack"), repeat=len(DATA_MOVABLES)):
+            if assignment.count("inhand") > 1:
+                continue
+            present = [m for m, where in zip(DATA_MOVABLES, assignment) if where != "absent"]
+            props = [
+                Proposition("aligned", ("rack",)),
+                Proposition("poslimit", ("rack",)),
+                Proposition(zone, ("rack",)),
+                Proposition("on", ("rack", "table")),
+            ]
+            for movable, where in zip(DATA_MOVABLES, assignment):
+                if where == "inhand":
+                    props.append(Proposition("inhand", (movable,)))
+                elif where != "absent":
+                    props.append(Proposition("on", (movable, where)))
+            states.append(SymbolicState(("table", "rack", *present), canonical_order(props)))
+    return tuple(states)
+
+
+def candidate_groundings(skill: str, object_names: Sequence[str]) -> tuple[SkillCall, ...]:
+    """Every grounding of ``skill`` considered by data generation: pick over every object; place and
+    pull over ordered pairs of distinct objects; push over ordered pairs of distinct
+    non-receptacles with each receptacle as the third argument. (These reproduce the original's
+    task counts, see :func:`enumerate_groundings`.)"""
+    if skill == "pick":
+        return tuple(SkillCall("pick", (a,)) for a in object_names)
+    if skill in ("place", "pull"):
+        return tuple(SkillCall(skill, pair) for pair in itertools.permutations(object_names, 2))
+    if skill == "push":
+        receptacles = [n for n in object_names if _kind(n) in RECEPTACLE]
+        others = [n for n in object_names if _kind(n) not in RECEPTACLE]
+        return tuple(
+            SkillCall("push", (a, b, c)) for c in receptacles for a, b in itertools.permutations(others, 2)
+        )
+    raise SkillError(f"unknown skill {skill!r}", _signature_hint(False))
+
+
+def enumerate_groundings(
+    skill: str, state: SymbolicState
+) -> tuple[tuple[SkillCall, ...], tuple[SkillCall, ...]]:
+    """``(valid, invalid)`` groundings of ``skill`` in an enumerated state (§11.2).
+
+    A push whose only failing condition is "the rack is beyond the workspace" is in neither set:
+    it is symbolically sensible but not trained. Over the 1 296 states this gives the original's
+    counts: pick 1 620 / 5 562, place 1 620 / 32 292, pull 216 / 33 696, push 108 / 21 924.
+    """
+    valid, invalid = [], []
+    rack_only = {f"{c} is not beyond the workspace" for c in state.objects if _kind(c) in RECEPTACLE}
+    for call in candidate_groundings(skill, state.objects):
+        problems = precondition_problems(call, state.facts)
+        if not problems:
+            valid.append(call)
+        elif not set(problems) <= rack_only:
+            invalid.append(call)
+    return tuple(valid), tuple(invalid)
