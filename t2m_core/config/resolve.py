@@ -157,7 +157,8 @@ def check_config(
 
     Unreadable files and malformed ``--set`` strings still raise :class:`ConfigError` at once.
     """
-    layers = [_Layer(str(path), load_yaml_file(Path(path))) for path in files]
+    layers = [_Layer("defaults", RunConfig().model_dump(mode="json"))]
+    layers += [_Layer(str(path), load_yaml_file(Path(path))) for path in files]
     merged: dict[str, Any] = {}
     for layer in layers:
         merged = deep_merge(merged, layer.data)
@@ -289,17 +290,17 @@ def _format_path(path: Sequence[str]) -> str:
 
 
 def _source_of(path: Sequence[str], layers: Sequence[_Layer]) -> str | None:
-    """The last source that sets ``path`` (or a parent of it with a non-mapping value)."""
-    for layer in reversed(layers):
-        node: Any = layer.data
-        for part in path:
-            if not isinstance(node, Mapping):
-                return layer.source  # a list or scalar here replaced everything below it
-            if part not in node:
-                break
-            node = node[part]
-        else:
-            return layer.source
+    """The latest source that sets the longest prefix of ``path`` (a missing key is blamed on the
+    source that wrote its parent; an item of a list on the source that wrote the list)."""
+    for depth in range(len(path), 0, -1):
+        for layer in reversed(layers):
+            node: Any = layer.data
+            for part in path[:depth]:
+                if not isinstance(node, Mapping) or part not in node:
+                    break
+                node = node[part]
+            else:
+                return layer.source
     return None
 
 
