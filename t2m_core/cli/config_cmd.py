@@ -88,9 +88,9 @@ def validate(
     else:
         console = Console(stderr=True)
         for issue in issues:
-            console.print(f"[red]✗[/] {escape(str(issue))}", highlight=False)
+            console.print(f"[red]✗[/] {escape(str(issue))}", highlight=False, soft_wrap=True)
         if not issues:
-            console.print("[green]✓[/] configuration is valid", highlight=False)
+            console.print("[green]✓[/] configuration is valid", highlight=False, soft_wrap=True)
     if issues:
         raise typer.Exit(1)
 

@@ -36,9 +36,10 @@ def render_error(error: T2MError) -> None:
     from rich.markup import escape
 
     console = Console(stderr=True)
-    console.print(f"[bold red]Error:[/] {escape(error.message)}", highlight=False)
+    # soft_wrap: the terminal wraps long lines; rich would break paths and names apart
+    console.print(f"[bold red]Error:[/] {escape(error.message)}", highlight=False, soft_wrap=True)
     if error.hint:
-        console.print(f"[bold]Hint:[/] {escape(error.hint)}", highlight=False)
+        console.print(f"[bold]Hint:[/] {escape(error.hint)}", highlight=False, soft_wrap=True)
 
 
 app = typer.Typer(

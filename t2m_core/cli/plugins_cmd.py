@@ -61,23 +61,30 @@ def list_plugins(
     if as_json:
         typer.echo(json.dumps(rows, indent=2))
         return
+    _print_table(rows)
+
+
+def _print_table(rows: list[dict[str, Any]]) -> None:
+    """A table of components; the errors of failed plugins follow it in full."""
     from rich.console import Console
     from rich.table import Table
     from rich.text import Text
 
     table = Table(title="t2m plugins", title_justify="left")
-    for column in ("kind", "name", "aliases", "provider", "version"):
-        table.add_column(column, no_wrap=True)
-    table.add_column("status", overflow="fold", ratio=1)
+    for column in ("kind", "name", "aliases", "provider", "status"):
+        table.add_column(column, overflow="fold")
+    failures = []
     for row in rows:
-        status_style = "green" if row["status"].startswith("ok") else "red"
-        table.add_row(
-            *(Text(value) for value in (row["kind"] or "(plugin)", row["name"], ", ".join(row["aliases"]))),
-            Text(row["provider"]),
-            Text(row["version"]),
-            Text(row["status"], style=status_style),
-        )
-    Console().print(table)
+        ok = row["status"].startswith("ok")
+        if not ok:
+            failures.append(row)
+        provider = f"{row['provider']} {row['version']}".strip()
+        cells = (row["kind"] or "(plugin)", row["name"], ", ".join(row["aliases"]), provider)
+        table.add_row(*(Text(cell) for cell in cells), Text("ok" if ok else "failed", style="green" if ok else "red"))
+    console = Console()
+    console.print(table)
+    for row in failures:
+        console.print(Text.assemble((f"{row['name']}", "bold red"), f" ({row['provider']}): {row['status']}"), soft_wrap=True)
 
 
 def register(app: typer.Typer) -> None:
