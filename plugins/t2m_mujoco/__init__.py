@@ -1,0 +1,1 @@
+"""MuJoCo backend of t2m: the TableEnv world simulated with MuJoCo (``--sim mujoco``)."""

@@ -1,0 +1,148 @@
+"""Arm and gripper control: damped-least-squares IK on MuJoCo's Jacobians and per-tick servo targets.
+
+The arm carries joint position servos (:mod:`t2m_mujoco.robot_model`). Every 1/60 s tick the
+controller writes 7 joint targets into ``ctrl`` and the simulator advances with one
+``mj_step(model, data, nstep)`` call. Targets come from one of two trajectories:
+
+* **free moves** (MOVE) interpolate in joint space, from the current joints to an IK solution of the
+  goal pose, at a bounded joint speed;
+* **straight moves** (DESCEND, LIFT, SWEEP) interpolate the EE pose on a straight line and run one
+  DLS iteration per tick, warm-started from the previous target, so contact-guarded motions stay on
+  the segment the domain asked for.
+
+IK runs on a private ``MjData`` (kinematics only), never on the simulated one. The null space pulls
+the arm toward q_home with joint 1 facing the goal (atan2(y, x)), as the original's null-space task.
+EE orientation targets are top-down with a yaw relative to the home orientation (tableenv.md §3.1):
+``R = Rz(yaw) · R_home``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from t2m_mujoco.robot_model import Q_HOME, RobotIndices
+
+TICKS_PER_SECOND = 60
+IK_DAMPING = 0.02
+"""DLS damping λ (metres-equivalent): keeps steps bounded near singularities."""
+IK_NULL_GAIN = 0.3
+IK_POSITION_TOLERANCE = 0.002
+"""Metres: an IK solution farther than this from its target means the pose is unreachable."""
+IK_ORIENTATION_TOLERANCE = 0.02
+"""Radians."""
+JOINT_LIMIT_MARGIN = 0.02
+"""Radians kept from the joint limits: a target beyond them is a control failure (§3.2 Abort)."""
+
+
+def rotation_z(yaw: float) -> np.ndarray:
+    """``(3, 3)`` rotation about world z by ``yaw`` radians."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def rotation_error(target: np.ndarray, current: np.ndarray) -> np.ndarray:
+    """``(3,)`` world-frame rotation vector (axis·angle, radians) taking ``current`` to ``target``."""
+    relative = target @ current.T
+    cos_angle = max(-1.0, min(1.0, (relative[0, 0] + relative[1, 1] + relative[2, 2] - 1.0) / 2.0))
+    angle = math.acos(cos_angle)
+    axis = np.array([relative[2, 1] - relative[1, 2], relative[0, 2] - relative[2, 0], relative[1, 0] - relative[0, 1]])
+    sin_angle = math.sin(angle)
+    if sin_angle < 1e-6:
+        if angle < 1e-6:
+            return 0.5 * axis
+        # near π: axis from the diagonal
+        diagonal = np.sqrt(np.maximum((np.diag(relative) + 1.0) / 2.0, 0.0))
+        return angle * diagonal
+    return axis * (angle / (2.0 * sin_angle))
+
+
+@dataclass
+class IKResult:
+    """A joint solution and how far its pose is from the target (metres, radians)."""
+
+    q: np.ndarray  # (7,) rad
+    position_error: float
+    orientation_error: float
+    within_limits: bool
+
+    @property
+    def reachable(self) -> bool:
+        return (
+            self.within_limits
+            and self.position_error < IK_POSITION_TOLERANCE
+            and self.orientation_error < IK_ORIENTATION_TOLERANCE
+        )
+
+
+class InverseKinematics:
+    """DLS inverse kinematics of the EE site on a private kinematics-only ``MjData``."""
+
+    def __init__(self, model, robot: RobotIndices) -> None:
+        import mujoco
+
+        self._mujoco = mujoco
+        self.model = model
+        self.robot = robot
+        self.data = mujoco.MjData(model)
+        self._jacobian = np.zeros((6, model.nv))
+        self._low = robot.joint_low + JOINT_LIMIT_MARGIN
+        self._high = robot.joint_high - JOINT_LIMIT_MARGIN
+        self.home_rotation = self.forward(Q_HOME)[1]
+
+    def forward(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """EE site ``((3,) position m, (3, 3) rotation)`` for arm joints ``q`` (7,) rad."""
+        self.data.qpos[self.robot.arm_qpos] = q
+        self._mujoco.mj_kinematics(self.model, self.data)
+        site = self.robot.ee_site
+        return self.data.site_xpos[site].copy(), self.data.site_xmat[site].reshape(3, 3).copy()
+
+    def target_rotation(self, yaw: float) -> np.ndarray:
+        """``(3, 3)`` top-down EE rotation at ``yaw`` radians relative to home."""
+        return rotation_z(yaw) @ self.home_rotation
+
+    def step(self, q: np.ndarray, position: np.ndarray, rotation: np.ndarray, null_target: np.ndarray) -> np.ndarray:
+        """One DLS iteration from ``q`` toward the pose; returns the new ``(7,)`` joints (clipped to limits)."""
+        mujoco, data, robot = self._mujoco, self.data, self.robot
+        data.qpos[robot.arm_qpos] = q
+        mujoco.mj_kinematics(self.model, data)
+        mujoco.mj_comPos(self.model, data)
+        site = robot.ee_site
+        error = np.empty(6)
+        error[:3] = position - data.site_xpos[site]
+        error[3:] = rotation_error(rotation, data.site_xmat[site].reshape(3, 3))
+        mujoco.mj_jacSite(self.model, data, self._jacobian[:3], self._jacobian[3:], site)
+        jac = self._jacobian[:, robot.arm_dof]
+        jjt = jac @ jac.T
+        jjt[np.diag_indices(6)] += IK_DAMPING**2
+        dq = jac.T @ np.linalg.solve(jjt, error)
+        # null space: (I − J⁺J)·k·(q_null − q), with J⁺ the damped pseudo-inverse
+        pinv = jac.T @ np.linalg.inv(jjt)
+        dq += (np.eye(7) - pinv @ jac) @ (IK_NULL_GAIN * (null_target - q))
+        return np.clip(q + dq, self._low, self._high)
+
+    def solve(
+        self, position: np.ndarray, rotation: np.ndarray, seed: np.ndarray, null_target: np.ndarray, iterations: int = 60
+    ) -> IKResult:
+        """Iterate :meth:`step` from ``seed``; reports the residual and whether limits were respected."""
+        q = np.array(seed, dtype=np.float64)
+        for _ in range(iterations):
+            q_next = self.step(q, position, rotation, null_target)
+            converged = np.max(np.abs(q_next - q)) < 1e-6
+            q = q_next
+            if converged:
+                break
+        reached, reached_rotation = self.forward(q)
+        position_error = float(np.linalg.norm(position - reached))
+        orientation_error = float(np.linalg.norm(rotation_error(rotation, reached_rotation)))
+        within = bool(np.all(q > self._low + 1e-6) and np.all(q < self._high - 1e-6))
+        return IKResult(q, position_error, orientation_error, within)
+
+
+def null_target_facing(position: np.ndarray) -> np.ndarray:
+    """``(7,)`` null-space posture: q_home with joint 1 turned to face ``position`` (x, y)."""
+    target = Q_HOME.copy()
+    target[0] = math.atan2(position[1], position[0])
+    return target

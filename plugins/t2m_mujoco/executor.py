@@ -1,0 +1,266 @@
+"""Executes the domain's :class:`~t2m_core.domain.primitives.MotionStep` s on a :class:`World`.
+
+Everything geometric (waypoints, which bodies a motion may not touch, success tests) comes from the
+domain; this module only turns a step into servo targets, ticks, and the control failures of
+tableenv.md §3.2: ``"unreachable"`` (IK outside the joint limits, or a motion that neither converges
+nor stalls within 10 s), ``"collision"`` (a finger or the held object touching a forbidden body,
+checked every 10 ticks) and ``"grasp_failed"`` (§3.3).
+
+Timing is counted in 1/60 s ticks, as the reference requires: motion timeout 600 ticks, gripper
+timeout 60 ticks, settle up to ``timeout_s``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from t2m_core.domain.primitives import MotionKind, MotionStep
+from t2m_core.protocols import Contact
+from t2m_mujoco import grasp
+from t2m_mujoco.controller import TICKS_PER_SECOND, null_target_facing, rotation_error
+from t2m_mujoco.robot_model import FINGER_OPEN
+from t2m_mujoco.world import World, robot_geoms
+
+MOTION_TIMEOUT_TICKS = 600
+"""10 s (§3.2)."""
+GRIPPER_TIMEOUT_TICKS = 60
+"""1 s (§3.3)."""
+CONTACT_CHECK_PERIOD = 10
+"""Ticks between collision checks during a guarded motion (§3.2)."""
+CONVERGED_POSITION = 0.01
+"""m; with speed < 0.01 m/s, orientation error < 0.01 rad and angular speed < 0.01 rad/s (§3.2)."""
+CONVERGED_SPEED = 0.01
+CONVERGED_ORIENTATION = 0.01
+CONVERGED_ANGULAR_SPEED = 0.01
+STALLED_SPEED = 0.001
+"""m/s of the exponentially averaged (factor 0.5) EE speed below which a motion has stalled."""
+STALLED_ANGULAR_SPEED = 0.02
+MOVE_JOINT_SPEED = 1.5
+"""rad/s: peak joint speed of free moves."""
+STRAIGHT_SPEED = 0.5
+"""m/s of descents and lifts."""
+SWEEP_SPEED = 0.3
+"""m/s of tool sweeps."""
+YAW_SPEED = 2.0
+"""rad/s of the gripper yaw on straight moves."""
+SOFT_GAIN_SCALE = 49.0 / 121.0
+"""Sweeps lower the arm servos' stiffness by the ratio of the reference's soft and normal gains."""
+
+
+@dataclass
+class StepReport:
+    """What one step did: a failure reason or ``None``, and the contacts it saw."""
+
+    failure: str | None = None
+    contacts: list[Contact] = field(default_factory=list)
+
+
+class Executor:
+    """Runs motion steps on one :class:`World`.
+
+    Args:
+        world: the simulated world.
+        on_tick: called after every tick (the video recorder), or ``None``.
+        frame_every: call ``on_tick`` every this many ticks.
+    """
+
+    def __init__(self, world: World, on_tick=None, frame_every: int = 2) -> None:
+        self.world = world
+        self.on_tick = on_tick
+        self.frame_every = max(1, int(frame_every))
+        self._finger_geoms = robot_geoms(world)
+
+    # --- public -----------------------------------------------------------------------------------
+
+    def run(self, step: MotionStep) -> StepReport:
+        """Execute one step; returns its failure reason (``None`` on success) and contacts."""
+        kind = step.kind
+        if kind is MotionKind.MOVE:
+            return self._move(step, straight=False)
+        if kind in (MotionKind.DESCEND, MotionKind.LIFT, MotionKind.SWEEP):
+            return self._move(step, straight=True)
+        if kind is MotionKind.GRASP:
+            return StepReport(self.grasp(step.grasp_object))
+        if kind is MotionKind.RELEASE:
+            self.release()
+            return StepReport()
+        if kind is MotionKind.SETTLE:
+            self.settle(step.timeout_s if step.timeout_s is not None else 3.0)
+            return StepReport()
+        raise ValueError(f"unknown motion kind {kind!r}")
+
+    def settle(self, timeout_s: float, min_ticks: int = 1) -> int:
+        """Tick until no object moves (at least ``min_ticks``, at most ``timeout_s``); returns the ticks used."""
+        world = self.world
+        world.forget_twist()
+        limit = max(min_ticks, int(round(timeout_s * TICKS_PER_SECOND)))
+        for tick in range(1, limit + 1):
+            self._tick()
+            if tick >= min_ticks and not world.moving_objects():
+                return tick
+        return limit
+
+    def grasp(self, name: str) -> str | None:
+        """Close on ``name``, validate the pads (§3.3), weld it. ``"grasp_failed"`` or ``None``."""
+        world = self.world
+        world.set_gripper(0.0)
+        world.forget_twist()
+        previous = world.finger_q()
+        for tick in range(GRIPPER_TIMEOUT_TICKS):
+            self._tick()
+            finger = world.finger_q()
+            settled = abs(finger - previous) < 1e-4 and tick >= 3
+            previous = finger
+            if settled and name not in world.moving_objects([name]):
+                break
+        if world.finger_q() < grasp.CLOSED_FINGER:
+            return "grasp_failed"  # closed on nothing
+        if not grasp.pads_hold(world, name):
+            return "grasp_failed"
+        world.attach(name)
+        # The weld holds the object now; keep the fingers where they are instead of squeezing, so
+        # pad forces and the weld do not fight (which makes the object creep).
+        world.set_gripper(world.finger_q())
+        return None
+
+    def release(self) -> None:
+        """Drop the weld and open the gripper (up to 1 s)."""
+        world = self.world
+        world.release()
+        world.set_gripper(FINGER_OPEN)
+        for _ in range(GRIPPER_TIMEOUT_TICKS):
+            self._tick()
+            if world.finger_q() > FINGER_OPEN - 0.002:
+                break
+
+    # --- motions ----------------------------------------------------------------------------------
+
+    def _move(self, step: MotionStep, *, straight: bool) -> StepReport:
+        world, ik = self.world, self.world.ik
+        goal = step.ee_position
+        start_position, start_rotation = world.ee_pose()
+        start_yaw = _relative_yaw(start_rotation, ik.home_rotation)
+        yaw = start_yaw if step.ee_yaw is None else float(step.ee_yaw)
+        null_target = null_target_facing(goal)
+        q_start = world.arm_q()
+
+        solution = ik.solve(goal, ik.target_rotation(yaw), q_start, null_target)
+        if not solution.reachable and world.held is None and step.ee_yaw is not None:
+            # An empty parallel-jaw gripper is symmetric under a half turn: use the twin yaw when
+            # the commanded one is beyond joint 7's range.
+            twin = _wrap(yaw + math.pi)
+            twin_solution = ik.solve(goal, ik.target_rotation(twin), q_start, null_target)
+            if twin_solution.reachable:
+                yaw, solution = twin, twin_solution
+        if not solution.reachable:
+            return StepReport("unreachable")
+        goal_rotation = ik.target_rotation(yaw)
+
+        report = StepReport()
+        forbidden = [world.scene.owners.index(n) for n in step.contact_objects if n in world.scene.owners]
+        if world.held in step.contact_objects:
+            forbidden.remove(world.scene.owners.index(world.held))
+        held_geoms = world.geoms_of(world.held) if world.held else np.empty(0, dtype=int)
+        watched = np.concatenate((self._finger_geoms, held_geoms)).astype(int)
+
+        if straight:
+            distance = float(np.linalg.norm(goal - start_position))
+            yaw_change = abs(_wrap(yaw - start_yaw))
+            speed = SWEEP_SPEED if step.kind is MotionKind.SWEEP else STRAIGHT_SPEED
+            duration = max(distance / speed, yaw_change / YAW_SPEED)
+        else:
+            duration = float(np.max(np.abs(solution.q - q_start))) / MOVE_JOINT_SPEED
+        ramp_ticks = max(1, int(math.ceil(duration * TICKS_PER_SECOND)))
+
+        gains = self._soften() if step.soft else None
+        try:
+            q_target = q_start
+            averaged_speed, averaged_angular = None, None
+            for tick in range(1, MOTION_TIMEOUT_TICKS + 1):
+                progress = min(1.0, tick / ramp_ticks)
+                blend = progress * progress * (3.0 - 2.0 * progress)  # smoothstep: no velocity jumps
+                if straight:
+                    if progress < 1.0:
+                        waypoint = start_position + blend * (goal - start_position)
+                        waypoint_yaw = start_yaw + blend * _wrap(yaw - start_yaw)
+                        q_target = ik.step(q_target, waypoint, ik.target_rotation(waypoint_yaw), null_target)
+                    else:
+                        q_target = solution.q
+                else:
+                    q_target = q_start + blend * (solution.q - q_start)
+                world.set_arm_target(q_target)
+                self._tick()
+
+                if forbidden and tick % CONTACT_CHECK_PERIOD == 0:
+                    hits = world.contacts_between(watched, forbidden)
+                    if hits:
+                        report.contacts.extend(_contacts(world, hits))
+                        report.failure = "collision"
+                        return report
+                position, rotation = world.ee_pose()
+                speed, angular = world.ee_velocity()
+                if averaged_speed is None:
+                    averaged_speed, averaged_angular = speed, angular
+                else:
+                    averaged_speed = 0.5 * averaged_speed + 0.5 * speed
+                    averaged_angular = 0.5 * averaged_angular + 0.5 * angular
+                if progress < 1.0:
+                    continue
+                converged = (
+                    np.linalg.norm(goal - position) < CONVERGED_POSITION
+                    and speed < CONVERGED_SPEED
+                    and np.linalg.norm(rotation_error(goal_rotation, rotation)) < CONVERGED_ORIENTATION
+                    and angular < CONVERGED_ANGULAR_SPEED
+                )
+                stalled = averaged_speed < STALLED_SPEED and averaged_angular < STALLED_ANGULAR_SPEED
+                if converged or stalled:
+                    return report
+            report.failure = "unreachable"  # neither converged nor stalled in 10 s
+            return report
+        finally:
+            if gains is not None:
+                self._restore_gains(gains)
+
+    # --- helpers ----------------------------------------------------------------------------------
+
+    def _tick(self) -> None:
+        self.world.tick()
+        if self.on_tick is not None and self.world.ticks % self.frame_every == 0:
+            self.on_tick(self.world)
+
+    def _soften(self) -> tuple[np.ndarray, np.ndarray]:
+        model, actuators = self.world.model, self.world.robot.arm_actuators
+        saved = (model.actuator_gainprm[actuators].copy(), model.actuator_biasprm[actuators].copy())
+        model.actuator_gainprm[actuators, 0] *= SOFT_GAIN_SCALE
+        model.actuator_biasprm[actuators, 1] *= SOFT_GAIN_SCALE
+        model.actuator_biasprm[actuators, 2] *= math.sqrt(SOFT_GAIN_SCALE)
+        return saved
+
+    def _restore_gains(self, saved: tuple[np.ndarray, np.ndarray]) -> None:
+        model, actuators = self.world.model, self.world.robot.arm_actuators
+        model.actuator_gainprm[actuators] = saved[0]
+        model.actuator_biasprm[actuators] = saved[1]
+
+
+def _wrap(angle: float) -> float:
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def _relative_yaw(rotation: np.ndarray, home_rotation: np.ndarray) -> float:
+    relative = rotation @ home_rotation.T
+    return math.atan2(relative[1, 0], relative[0, 0])
+
+
+def _contacts(world: World, hits: list[tuple[int, int, float]]) -> list[Contact]:
+    contacts = []
+    pairs = world.data.contact.geom
+    for index, geom, force in hits:
+        other = pairs[index][1] if pairs[index][0] == geom else pairs[index][0]
+        name_a = world.owner_name(geom)
+        if name_a == "robot":
+            name_a = world.model.geom(geom).name or world.model.body(world.model.geom_bodyid[geom]).name
+        contacts.append(Contact(name_a, world.owner_name(int(other)), force))
+    return contacts
