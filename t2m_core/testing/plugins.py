@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -76,13 +77,22 @@ def check_plugin_module(module: ModuleType, *, import_factories: bool = True) ->
 
 
 def check_import_light(module_name: str, heavy: tuple[str, ...] = HEAVY_MODULES) -> None:
-    """Assert that importing ``module_name`` in a fresh interpreter imports none of ``heavy``."""
+    """Assert that importing ``module_name`` in a fresh interpreter imports none of ``heavy``.
+
+    The fresh interpreter gets this process's ``sys.path``, so modules importable here are there too.
+    """
     probe = (
         "import importlib, json, sys; importlib.import_module(sys.argv[1]); "
         "print(json.dumps(sorted(m for m in sys.argv[2:] if m in sys.modules)))"
     )
+    environment = {**os.environ, "PYTHONPATH": os.pathsep.join(path for path in sys.path if path)}
     result = subprocess.run(
-        [sys.executable, "-c", probe, module_name, *heavy], capture_output=True, text=True, check=False, timeout=120
+        [sys.executable, "-c", probe, module_name, *heavy],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=120,
+        env=environment,
     )
     assert result.returncode == 0, f"importing {module_name} failed:\n{result.stderr}"
     imported = json.loads(result.stdout.strip().splitlines()[-1])

@@ -1,0 +1,1 @@
+"""Makes ``t2m_scene_file`` importable when the tests run from a source checkout without installing it."""
