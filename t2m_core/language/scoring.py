@@ -118,9 +118,9 @@ def average_choice_logprobs(per_ordering: Sequence[tuple[Sequence[int], Sequence
 
 
 def continuation_logprob(
-    text: str, token_offsets: Sequence[int], token_logprobs: Sequence[float | None], boundary: int
+    text: str, token_offsets: Sequence[int], token_logprobs: Sequence[float | None], boundary: int, end: int | None = None
 ) -> float:
-    """Sum of the log-probabilities of the tokens that cover characters at or after ``boundary``.
+    """Sum of the log-probabilities of the tokens that cover characters in ``[boundary, end)``.
 
     This is the exact score from echoed prompt log-probabilities (§11.2): tokens are located by their
     character offsets in ``text``, never by looking for a ``:`` token.
@@ -130,11 +130,14 @@ def continuation_logprob(
         token_offsets: start character of each token.
         token_logprobs: log-probability of each token (``None`` for the first token).
         boundary: character index where the candidate continuation starts (``len(context)``).
+        end: where the scored text ends (default ``len(text)``); tokens starting at or after it
+            (e.g. a generated token appended to the echo) are ignored.
     """
+    stop = len(text) if end is None else end
     total = 0.0
     for index, start in enumerate(token_offsets):
-        end = token_offsets[index + 1] if index + 1 < len(token_offsets) else len(text)
-        if end > boundary:
+        token_end = token_offsets[index + 1] if index + 1 < len(token_offsets) else len(text)
+        if token_end > boundary and start < stop:
             logprob = token_logprobs[index]
             if logprob is None:
                 raise ValueError("the first token of the continuation has no log-probability")

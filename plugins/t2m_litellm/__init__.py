@@ -1,0 +1,1 @@
+"""Any language model litellm can reach (OpenAI, Anthropic, ollama, OpenAI-compatible servers)."""
