@@ -229,13 +229,14 @@ def _check_components(
         if component is None:
             continue
         try:
-            spec = registry.get(kind, component.name)
+            canonical, implied_options = _select(kind, component.name, component.options, registry)
+            spec = registry.get(kind, canonical)
         except PluginError as error:
             message = f"{error.message}; {error.hint}" if error.hint else error.message
             issues.append(ConfigIssue(f"{block}.name", message, _source_of((block, "name"), layers)))
             continue
         try:
-            options = spec.options.model_validate(component.options)
+            options = spec.options.model_validate(implied_options)
         except ValidationError as error:
             prefix = (block, "options")
             issues.extend(_issue_from_pydantic(issue, prefix, spec.options, layers) for issue in error.errors())
@@ -244,6 +245,19 @@ def _check_components(
     if issues:
         return None, issues
     return RunConfig.model_validate(resolved), []
+
+
+def _select(kind: str, name: str, options: dict[str, Any], registry: Registry) -> tuple[str, dict[str, Any]]:
+    """The canonical component name and the options that ``name`` implies plus the explicit ones.
+
+    Language models also resolve names the registry does not list itself: aliases that carry options
+    (``gpt-4`` -> litellm with ``model: gpt-4``) and provider prefixes (``ollama/llama3``).
+    """
+    if kind == "language_model":
+        from t2m_core.language.selection import resolve_language_model
+
+        return resolve_language_model(name, options, registry)
+    return name, options
 
 
 def _issue_from_pydantic(

@@ -173,3 +173,35 @@ def test_null_blocks_are_not_looked_up(toy_registry: Registry) -> None:
     registry.register_plugin(plugin(t2m_register_simulators=[toy_simulator_spec()]))
     _, issues = check_config(overrides=["simulator.name=toysim"], registry=registry)
     assert {issue.path for issue in issues} == {"language_model.name", "scene_parser.name"}
+
+
+def test_language_model_alias_implies_its_options() -> None:
+    from pydantic import BaseModel, ConfigDict
+
+    from t2m_core.plugin_specs import LanguageModelSpec
+
+    class HostedOptions(BaseModel):
+        model_config = ConfigDict(extra="forbid")
+        model: str = "big-1"
+        timeout_s: float = 60.0
+
+    hosted = LanguageModelSpec(
+        name="hosted",
+        aliases=("small",),
+        factory="builtins:object",
+        options=HostedOptions,
+        summary="x",
+        extra={"alias_options": {"small": {"model": "small-2"}}, "name_prefixes": {"acme/": "keep"}, "name_prefix_option": "model"},
+    )
+    registry = Registry()
+    registry.register_plugin(plugin(t2m_register_language_models=[hosted]), name="hosted")
+    registry.register_plugin(EveryKind(), name="every-kind")
+    others = ["simulator.name=toysim", "scene_parser.name=toy-parser"]
+
+    def language_model(llm: str, *overrides: str) -> dict:
+        config = resolve_config(flags={"llm": llm}, overrides=[*others, *overrides], registry=registry)
+        return config.language_model.model_dump()
+
+    assert language_model("small") == {"name": "small", "options": {"model": "small-2", "timeout_s": 60.0}}
+    assert language_model("small", "language_model.options.model=tiny")["options"]["model"] == "tiny"  # explicit wins
+    assert language_model("acme/x9")["options"]["model"] == "acme/x9"
