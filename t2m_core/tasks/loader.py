@@ -86,7 +86,7 @@ def parse_task(text: str, source: Path | str = "<task>") -> Task:
         data = TaskFile.model_validate(raw)
     except ValidationError as error:
         first = error.errors()[0]
-        key = ".".join(str(part) for part in first["loc"]) or "<root>"
+        key = "".join(f"[{part}]" if isinstance(part, int) else f".{part}" for part in first["loc"]).lstrip(".") or "<root>"
         hint = f"allowed keys: {', '.join(TaskFile.model_fields)}" if first["type"] == "extra_forbidden" else None
         problem = "unknown key" if first["type"] == "extra_forbidden" else first["msg"]
         raise TaskFileError(f"{where}: key {key!r}: {problem}", hint) from None
