@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import tomllib
-from pathlib import Path
 
 import numpy as np
 from typer.testing import CliRunner
@@ -13,15 +11,7 @@ from t2m_core.cli.main import app
 from t2m_core.protocols import SceneObservation
 from t2m_core.registry import get_registry
 from t2m_core.testing import check_import_light, check_scene_parser
-
-EXAMPLE = Path(__file__).parents[2] / "examples" / "t2m-scene-file"
-
-
-def install_example(t2m_fake_distribution, monkeypatch) -> None:
-    """What `pip install -e examples/t2m-scene-file` does: metadata with its entry points, source on sys.path."""
-    project = tomllib.loads((EXAMPLE / "pyproject.toml").read_text(encoding="utf-8"))["project"]
-    monkeypatch.syspath_prepend(str(EXAMPLE))
-    t2m_fake_distribution(project["name"], version=project["version"], entry_points=project["entry-points"]["t2m"])
+from tests.examples.scene_file_install import EXAMPLE, install_example
 
 
 def test_scene_file_plugin_is_discovered_and_listed(t2m_fake_distribution, monkeypatch) -> None:

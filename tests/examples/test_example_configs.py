@@ -1,0 +1,37 @@
+"""Every shipped example config is a valid run configuration for the components it names."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from t2m_core.config import RunConfig, resolve_config
+from t2m_core.errors import ConfigError
+from t2m_core.registry import get_registry
+from tests.examples.scene_file_install import install_example
+
+CONFIGS = Path(__file__).parents[2] / "examples" / "configs"
+
+
+def test_there_are_example_configs() -> None:
+    assert {path.name for path in CONFIGS.glob("*.yaml")} >= {"default.yaml", "hosted-llm.yaml", "measured-scene.yaml"}
+
+
+def test_default_yaml_is_exactly_the_defaults() -> None:
+    assert resolve_config([CONFIGS / "default.yaml"]) == RunConfig()
+    assert resolve_config([CONFIGS / "default.yaml"], registry=get_registry()) == resolve_config(registry=get_registry())
+
+
+def test_hosted_llm_selects_litellm_with_the_alias_model() -> None:
+    config = resolve_config([CONFIGS / "hosted-llm.yaml"], registry=get_registry())
+    assert config.language_model.name == "gpt-4o"
+    assert (config.language_model.options["model"], config.language_model.options["timeout_s"]) == ("gpt-4o", 60.0)
+
+
+def test_measured_scene_validates_once_the_example_plugin_is_installed(t2m_fake_distribution, monkeypatch) -> None:
+    with pytest.raises(ConfigError, match="unknown scene parser 'scene-file'"):
+        resolve_config([CONFIGS / "measured-scene.yaml"], registry=get_registry())
+    install_example(t2m_fake_distribution, monkeypatch)
+    config = resolve_config([CONFIGS / "measured-scene.yaml"], registry=get_registry())
+    assert config.scene_parser.options == {"path": "examples/t2m-scene-file/scenes/example.yaml", "size_tolerance": 0.01}
