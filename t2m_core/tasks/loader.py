@@ -200,16 +200,3 @@ def load_task(task_id: str) -> Task:
     suggestion = f"did you mean {close[0]!r}? " if close else ""
     raise TaskNotFoundError(f"unknown task {key!r}", f"{suggestion}valid tasks: {', '.join(ids)}")
 
-
-__all__ = [
-    "TASK_PROPERTIES",
-    "Task",
-    "TaskFile",
-    "TaskFileError",
-    "TaskNotFoundError",
-    "list_tasks",
-    "load_task",
-    "load_task_file",
-    "parse_task",
-    "task_ids",
-]
