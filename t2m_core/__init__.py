@@ -5,11 +5,18 @@ the plugin registry, the TableEnv domain, the task suite, prompts, configuration
 Importing it is cheap: no torch, mujoco, pybullet, llama_cpp or litellm.
 """
 
-from importlib.metadata import PackageNotFoundError, version
-
-try:
-    __version__ = version("text2motion")
-except PackageNotFoundError:  # running from a source tree that is not installed
-    __version__ = "0.0.0+unknown"
-
 __all__ = ["__version__"]
+
+
+def __getattr__(name: str) -> str:
+    # looked up on first use: importlib.metadata costs ~0.1 s, which `t2m --help` need not pay
+    if name != "__version__":
+        raise AttributeError(f"module 't2m_core' has no attribute {name!r}")
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        value = version("text2motion")
+    except PackageNotFoundError:  # running from a source tree that is not installed
+        value = "0.0.0+unknown"
+    globals()["__version__"] = value
+    return value
