@@ -187,7 +187,8 @@ def did_move(
     """The disturbance test (§6): translation ≥ 0.05 m or rotation ≥ 5°. Broadcasts over ``(..., 3)``
     positions and ``(..., 4)`` quaternions."""
     shift = np.linalg.norm(np.asarray(position_after, float) - np.asarray(position_before, float), axis=-1)
-    moved = (shift >= DISTURBANCE_TRANSLATION) | (np.asarray(quat_angle(quat_before, quat_after)) >= DISTURBANCE_ROTATION)
+    turn = np.asarray(quat_angle(quat_before, quat_after))
+    moved = (shift >= DISTURBANCE_TRANSLATION) | (turn >= DISTURBANCE_ROTATION)
     return bool(moved) if np.ndim(moved) == 0 else moved
 
 

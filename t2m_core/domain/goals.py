@@ -105,7 +105,8 @@ def parse_goal(text: str, *, extract: bool = False) -> Goal:
         body = extract_first_list(text) if extract else text
         value = parse_string_lists(body)
     except LiteralSyntaxError as error:
-        raise GoalError(f"cannot parse the goal: {error.message}", "write a list of lists, e.g. [['on(a, b)']]") from None
+        hint = "write a list of lists, e.g. [['on(a, b)']]"
+        raise GoalError(f"cannot parse the goal: {error.message}", hint) from None
     if not value:
         raise GoalError("the goal is an empty list", "write at least one alternative, e.g. [['on(a, b)']]")
     alternatives: list[tuple[Proposition, ...]] = []

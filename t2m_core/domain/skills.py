@@ -73,7 +73,9 @@ SKILLS: dict[str, SkillSignature] = {
     s.name: s
     for s in (
         # One argument everywhere (quirk Q12): the support object is not an argument of pick.
-        SkillSignature("pick", (SkillParameter("a", MOVABLE, "a movable object (box or hook)"),), "grasp a and lift it"),
+        SkillSignature(
+            "pick", (SkillParameter("a", MOVABLE, "a movable object (box or hook)"),), "grasp a and lift it"
+        ),
         SkillSignature(
             "place",
             (
@@ -176,7 +178,8 @@ def parse_skill_sequence(
     try:
         value = parse_string_lists(extract_first_list(text) if extract else text)
     except LiteralSyntaxError as error:
-        raise SkillError(f"cannot parse the skill sequence: {error.message}", "write e.g. ['pick(a)', 'place(a, b)']") from None
+        hint = "write e.g. ['pick(a)', 'place(a, b)']"
+        raise SkillError(f"cannot parse the skill sequence: {error.message}", hint) from None
     calls = []
     for index, entry in enumerate(value, start=1):
         if not isinstance(entry, str):

@@ -19,10 +19,16 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from t2m_core.domain.goals import Goal, GoalError, validate_goal
 from t2m_core.domain.literals import LiteralSyntaxError
 from t2m_core.domain.objects import OBJECTS
-from t2m_core.domain.predicates import PREDICATE_ORDER, Proposition, PropositionError, canonical_order, validate_proposition
+from t2m_core.domain.predicates import (
+    PREDICATE_ORDER,
+    Proposition,
+    PropositionError,
+    canonical_order,
+    validate_proposition,
+)
 from t2m_core.domain.skills import SkillError, parse_skill_call, validate_skill_call
 from t2m_core.errors import T2MError
-from t2m_core.tasks.model import TASK_PROPERTIES, Task
+from t2m_core.tasks.model import Task
 
 _DATA_PACKAGE = "t2m_core.tasks.data"
 
@@ -81,12 +87,13 @@ def parse_task(text: str, source: Path | str = "<task>") -> Task:
     except yaml.YAMLError as error:
         raise TaskFileError(f"{where}: invalid YAML: {error}") from None
     if not isinstance(raw, dict):
-        raise TaskFileError(f"{where}: a task file must be a mapping of keys", f"keys: {', '.join(TaskFile.model_fields)}")
+        keys = ", ".join(TaskFile.model_fields)
+        raise TaskFileError(f"{where}: a task file must be a mapping of keys", f"keys: {keys}")
     try:
         data = TaskFile.model_validate(raw)
     except ValidationError as error:
         first = error.errors()[0]
-        key = "".join(f"[{part}]" if isinstance(part, int) else f".{part}" for part in first["loc"]).lstrip(".") or "<root>"
+        key = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in first["loc"]).lstrip(".") or "<root>"
         hint = f"allowed keys: {', '.join(TaskFile.model_fields)}" if first["type"] == "extra_forbidden" else None
         problem = "unknown key" if first["type"] == "extra_forbidden" else first["msg"]
         raise TaskFileError(f"{where}: key {key!r}: {problem}", hint) from None

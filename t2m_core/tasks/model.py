@@ -13,7 +13,7 @@ from t2m_core.domain.skills import SkillCall
 TASK_PROPERTIES: dict[str, str] = {
     "LH": "long-horizon: the solution needs five or more dependent skills",
     "LG": "lifted goal: the instruction names a class or a count, so several goal sets are valid",
-    "PAP": "partial affordance perception: a needed precondition is visible neither in the instruction nor in the scene",
+    "PAP": "partial affordance perception: a needed precondition shows neither in the instruction nor in the scene",
 }
 """Task property tags (tasks.md §0)."""
 

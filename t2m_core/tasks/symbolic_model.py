@@ -22,7 +22,9 @@ from t2m_core.tasks.model import Task
 
 Facts = frozenset[Proposition]
 
-SYMBOLIC_ZONES = ("inworkspace", "beyondworkspace", "incollisionzone", "inoperationalzone", "inobstructionzone", "inoodzone")
+SYMBOLIC_ZONES = (
+    "inworkspace", "beyondworkspace", "incollisionzone", "inoperationalzone", "inobstructionzone", "inoodzone"
+)
 """Zone facts of the model."""
 _RELATIONAL = ("infront", "nonblocking")
 _KEPT_INITIAL = ("on", "inworkspace", "beyondworkspace", "inoperationalzone", "inobstructionzone", *_RELATIONAL)
@@ -70,7 +72,10 @@ def applicable(call: SkillCall, facts: Facts) -> bool:
         return (
             not held
             and any(
-                p.predicate == "on" and p.args[0] == a and _kind(p.args[1]) in UNMOVABLE and _has(facts, "inworkspace", p.args[1])
+                p.predicate == "on"
+                and p.args[0] == a
+                and _kind(p.args[1]) in UNMOVABLE
+                and _has(facts, "inworkspace", p.args[1])
                 for p in facts
             )
             and _in_any_zone(facts, a, ("inworkspace", "incollisionzone", "inoperationalzone", "inobstructionzone"))

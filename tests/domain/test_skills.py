@@ -82,7 +82,8 @@ def test_parse_skill_sequence() -> None:
     calls = parse_skill_sequence(text, SCENE)
     assert format_skill_sequence(calls) == "['pick(hook)', 'pull(red_box, hook)', 'place(hook, table)']"
     assert parse_skill_sequence(format_skill_sequence(calls)) == calls
-    assert parse_skill_sequence("Sure! ['pick(red_box)'] is best.", SCENE, extract=True) == (SkillCall("pick", ("red_box",)),)
+    chatty = "Sure! ['pick(red_box)'] is best."
+    assert parse_skill_sequence(chatty, SCENE, extract=True) == (SkillCall("pick", ("red_box",)),)
     assert parse_skill_sequence("['pick(red_box)', 'stop()']", SCENE, allow_stop=True)[-1].name == "stop"
     with pytest.raises(SkillError, match="entry 2: invalid skill call pick\\(rack, hook\\)"):
         parse_skill_sequence("['pick(hook)', 'pick(rack, hook)']", SCENE)
@@ -118,7 +119,8 @@ def test_pick_validity() -> None:
     assert precondition_problems(SkillCall("pick", ("red_box",)), holding) == ["hook is already in hand"]
     assert not is_valid_grounding(SkillCall("pick", ("rack",)), ON_TABLE)
     stacked = ON_TABLE | facts("on(cyan_box, red_box)")
-    assert precondition_problems(SkillCall("pick", ("cyan_box",)), stacked) == ["cyan_box is not on the table or the rack"]
+    problems = precondition_problems(SkillCall("pick", ("cyan_box",)), stacked)
+    assert problems == ["cyan_box is not on the table or the rack"]
 
 
 def test_place_validity() -> None:
