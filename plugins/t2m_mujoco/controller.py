@@ -29,6 +29,7 @@ TICKS_PER_SECOND = 60
 IK_DAMPING = 0.02
 """DLS damping λ (metres-equivalent): keeps steps bounded near singularities."""
 IK_NULL_GAIN = 0.3
+IK_POLISH_ITERATIONS = 20
 IK_POSITION_TOLERANCE = 0.002
 """Metres: an IK solution farther than this from its target means the pose is unreachable."""
 IK_ORIENTATION_TOLERANCE = 0.02
@@ -103,8 +104,11 @@ class InverseKinematics:
         """``(3, 3)`` top-down EE rotation at ``yaw`` radians relative to home."""
         return rotation_z(yaw) @ self.home_rotation
 
-    def step(self, q: np.ndarray, position: np.ndarray, rotation: np.ndarray, null_target: np.ndarray) -> np.ndarray:
-        """One DLS iteration from ``q`` toward the pose; returns the new ``(7,)`` joints (clipped to limits)."""
+    def step(
+        self, q: np.ndarray, position: np.ndarray, rotation: np.ndarray, null_target: np.ndarray | None
+    ) -> np.ndarray:
+        """One DLS iteration from ``q`` toward the pose, with a null-space pull toward ``null_target``
+        (``None``: none); returns the new ``(7,)`` joints, clipped to the limits."""
         mujoco, data, robot = self._mujoco, self.data, self.robot
         data.qpos[robot.arm_qpos] = q
         mujoco.mj_kinematics(self.model, data)
@@ -117,20 +121,29 @@ class InverseKinematics:
         jac = self._jacobian[:, robot.arm_dof]
         jjt = jac @ jac.T
         jjt[np.diag_indices(6)] += IK_DAMPING**2
-        dq = jac.T @ np.linalg.solve(jjt, error)
-        # null space: (I − J⁺J)·k·(q_null − q), with J⁺ the damped pseudo-inverse
-        pinv = jac.T @ np.linalg.inv(jjt)
-        dq += (np.eye(7) - pinv @ jac) @ (IK_NULL_GAIN * (null_target - q))
+        pinv = jac.T @ np.linalg.inv(jjt)  # damped pseudo-inverse J⁺, (7, 6)
+        dq = pinv @ error
+        if null_target is not None:
+            dq += (np.eye(7) - pinv @ jac) @ (IK_NULL_GAIN * (null_target - q))
         return np.clip(q + dq, self._low, self._high)
 
     def solve(
         self, position: np.ndarray, rotation: np.ndarray, seed: np.ndarray, null_target: np.ndarray, iterations: int = 60
     ) -> IKResult:
-        """Iterate :meth:`step` from ``seed``; reports the residual and whether limits were respected."""
+        """Iterate :meth:`step` from ``seed``; reports the residual and whether limits were respected.
+
+        The null-space pull shapes the posture during the first ``iterations``; a few final
+        iterations without it remove the small task error the damped projection leaks."""
         q = np.array(seed, dtype=np.float64)
         for _ in range(iterations):
             q_next = self.step(q, position, rotation, null_target)
             converged = np.max(np.abs(q_next - q)) < 1e-6
+            q = q_next
+            if converged:
+                break
+        for _ in range(IK_POLISH_ITERATIONS):
+            q_next = self.step(q, position, rotation, None)
+            converged = np.max(np.abs(q_next - q)) < 1e-7
             q = q_next
             if converged:
                 break

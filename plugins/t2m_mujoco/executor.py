@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from t2m_core.domain.objects import ObjectKind, object_spec
 from t2m_core.domain.primitives import MotionKind, MotionStep
 from t2m_core.protocols import Contact
 from t2m_mujoco import grasp
@@ -72,6 +73,11 @@ class Executor:
         self.on_tick = on_tick
         self.frame_every = max(1, int(frame_every))
         self._finger_geoms = robot_geoms(world)
+        self.yaw_offset = 0.0
+
+    def begin_primitive(self) -> None:
+        """Forget the half-turn choice of the previous primitive (see :meth:`_choose_yaw`)."""
+        self.yaw_offset = 0.0
 
     # --- public -----------------------------------------------------------------------------------
 
@@ -147,14 +153,18 @@ class Executor:
         null_target = null_target_facing(goal)
         q_start = world.arm_q()
 
+        if step.ee_yaw is not None:
+            yaw = _wrap(yaw + self.yaw_offset)
         solution = ik.solve(goal, ik.target_rotation(yaw), q_start, null_target)
-        if not solution.reachable and world.held is None and step.ee_yaw is not None:
-            # An empty parallel-jaw gripper is symmetric under a half turn: use the twin yaw when
-            # the commanded one is beyond joint 7's range.
+        if not solution.reachable and step.ee_yaw is not None and self._half_turn_allowed():
+            # A parallel-jaw gripper holding nothing, or a square box, is symmetric under a half
+            # turn about z: use the twin yaw when the commanded one is beyond joint 7's range, and
+            # keep that choice for the rest of the primitive.
             twin = _wrap(yaw + math.pi)
             twin_solution = ik.solve(goal, ik.target_rotation(twin), q_start, null_target)
             if twin_solution.reachable:
                 yaw, solution = twin, twin_solution
+                self.yaw_offset = _wrap(self.yaw_offset + math.pi)
         if not solution.reachable:
             return StepReport("unreachable")
         goal_rotation = ik.target_rotation(yaw)
@@ -225,6 +235,13 @@ class Executor:
                 self._restore_gains(gains)
 
     # --- helpers ----------------------------------------------------------------------------------
+
+    def _half_turn_allowed(self) -> bool:
+        held = self.world.held
+        if held is None:
+            return True
+        spec = object_spec(held)
+        return spec.kind is ObjectKind.BOX and abs(spec.size[0] - spec.size[1]) < 1e-9
 
     def _tick(self) -> None:
         self.world.tick()

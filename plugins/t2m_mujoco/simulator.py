@@ -183,6 +183,7 @@ class MujocoSimulator:
         start = world.geometric_state()
         arguments = spec.check_arguments(start, arguments)
         self._frames = []
+        executor.begin_primitive()
         contacts: list[Contact] = []
         reason = spec.precheck(start, arguments, action)
         if reason is None:
