@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -47,7 +48,9 @@ from t2m_core.domain.constants import (
     Zone,
 )
 from t2m_core.domain.geometry import (
+    ObjectGeometry,
     axis_angle_to_quat,
+    closest_distance,
     object_geometry,
     quat_multiply,
     quat_yaw,
@@ -171,16 +174,30 @@ def sample_initial_state(
         raise ValueError(f"max_attempts must be at least 1, got {max_attempts}")
     for attempt in range(max_attempts):
         candidate = seed + attempt
-        try:
-            scene = _SceneSampler(names, props, np.random.default_rng(candidate)).run()
-        except _Rejected:
-            continue
-        return SampledScene(scene.state, scene.drop_state, scene.robot_pose, candidate, attempt, scene.tipped)
+        scene = _sample_candidate(names, props, candidate)
+        if scene is not None:
+            return SampledScene(scene.state, scene.drop_state, scene.robot_pose, candidate, attempt, scene.tipped)
     raise SamplingError(
         f"no valid initial state in seeds {seed}..{seed + max_attempts - 1} for {', '.join(map(str, props))}",
         "check that the propositions are satisfiable together (zones, free, infront, nonblocking), "
         "or allow more attempts",
     )
+
+
+@lru_cache(maxsize=4096)
+def _sample_candidate(names: tuple[str, ...], props: tuple[Proposition, ...], candidate: int) -> _Result | None:
+    """One candidate seed's scene, or ``None`` if it is rejected. Memoised: neighbouring base seeds
+    walk through the same candidates (seed 3 retries 4, 5...), and every planner of an evaluation
+    resets the same seeds; a candidate's outcome depends only on these arguments."""
+    try:
+        return _SceneSampler(names, props, np.random.default_rng(candidate)).run()
+    except _Rejected:
+        return None
+
+
+def clear_cache() -> None:
+    """Forget memoised candidates (for timing the sampler)."""
+    _sample_candidate.cache_clear()
 
 
 def random_robot_pose(rng: np.random.Generator) -> RobotPose:
@@ -200,10 +217,36 @@ def random_robot_pose(rng: np.random.Generator) -> RobotPose:
 
 @dataclass
 class _Placement:
-    """Where an object is: resting pose (verified) and drop pose (loaded by the backend)."""
+    """Where an object is: resting pose (verified) and drop pose (loaded by the backend), with the
+    resting geometry computed once (the hot path of the rejection loops)."""
 
     rest: ObjectPose
     drop: ObjectPose
+    rest_geometry: ObjectGeometry
+    drop_top: float
+    """max z of the dropped object's AABB, metres."""
+
+    @classmethod
+    def of(cls, name: str, rest: ObjectPose, drop: ObjectPose) -> _Placement:
+        """Both poses share their orientation, so the drop top is the rest top shifted in z. The
+        arrays are made read-only: accepted scenes are memoised and shared between callers."""
+        for pose in (rest, drop):
+            pose.position.flags.writeable = False
+            pose.quaternion.flags.writeable = False
+        geometry = object_geometry(name, rest)
+        return cls(rest, drop, geometry, geometry.max_z + float(drop.position[2] - rest.position[2]))
+
+
+class _PlacedScene(Scene):
+    """A :class:`Scene` of the objects placed so far that reuses their cached resting geometry."""
+
+    def __init__(self, placed: dict[str, _Placement], state: GeometricState, context: Iterable[Proposition]) -> None:
+        super().__init__(state, context)
+        self._placed = placed
+
+    def geometry(self, name: str) -> ObjectGeometry:
+        placement = self._placed.get(name)
+        return placement.rest_geometry if placement is not None else super().geometry(name)
 
 
 @dataclass
@@ -233,7 +276,7 @@ class _SceneSampler:
         for name in names:
             if object_spec(name).kind is ObjectKind.TABLE:
                 identity = ObjectPose(np.zeros(3))
-                self.placed[name] = _Placement(identity, identity)
+                self.placed[name] = _Placement.of(name, identity, identity)
 
     def has(self, text: str) -> bool:
         return text in self.context
@@ -250,7 +293,7 @@ class _SceneSampler:
             # infront) or checks of the final verification (free, nonblocking)
         robot_pose = random_robot_pose(self.rng)
         state = self.state(rest=True)
-        scene = Scene(state, self.props)
+        scene = _PlacedScene(self.placed, state, self.props)
         if not all(evaluate(p, scene) for p in self.props):
             raise _Rejected
         return _Result(state, self.state(rest=False), robot_pose, frozenset(self.tipped))
@@ -285,7 +328,7 @@ class _SceneSampler:
         quaternion = yaw_to_quat(-grasp_yaw)
         position = HOME_EE_POSITION - rotate(quaternion, grasp_position)
         pose = ObjectPose(position, quaternion)
-        self.placed[obj] = _Placement(pose, pose)
+        self.placed[obj] = _Placement.of(obj, pose, pose)
         self.held = obj
 
     def _grasp_in_object_frame(self, obj: str) -> tuple[np.ndarray, float]:
@@ -345,7 +388,7 @@ class _SceneSampler:
             tipped_quaternion = self._maybe_tip(child, quaternion)
             orientation = quaternion if tipped_quaternion is None else tipped_quaternion
             self.placed[child] = self._rest_and_drop(child, parent, xy, orientation, tipped=tipped_quaternion is not None)
-            if self._accepts(child):
+            if self._accepts(child) and not self._interpenetrates(child, parent):
                 if tipped_quaternion is not None:
                     self.tipped.add(child)
                 return
@@ -392,7 +435,7 @@ class _SceneSampler:
         for rack in (p.args[1] for p in self.props if p.predicate == "infront" and p.args[0] == child):
             if rack not in self.placed:
                 continue
-            rack_box = object_geometry(rack, self.placed[rack].rest).aabb
+            rack_box = self.placed[rack].rest_geometry.aabb
             low = np.maximum(low, [WORKSPACE_X_MIN, rack_box[0, 1]])
             high = np.minimum(high, [rack_box[0, 0], rack_box[1, 1]])
         # Shrink by the half extents of the world AABB at this yaw (hook: 25 % in the small zones).
@@ -443,19 +486,31 @@ class _SceneSampler:
         """Poses resting on the parent (bottom on its top) and dropped 5 cm above it (tipped:
         from parent_top + 0.8·max(size_x, size_y), the reference's drop height)."""
         bottom_offset = -object_geometry(child, ObjectPose(np.zeros(3), quaternion)).aabb[0, 2]
-        rest_top = object_geometry(parent, self.placed[parent].rest).aabb[1, 2]
-        drop_top = object_geometry(parent, self.placed[parent].drop).aabb[1, 2]
+        rest_top = self.placed[parent].rest_geometry.max_z
+        drop_top = self.placed[parent].drop_top
         if not tipped:
             drop_z = drop_top + DROP_HEIGHT + bottom_offset
         else:
             drop_z = drop_top + TIPPED_DROP_SCALE * max(object_spec(child).size[:2])
         rest = ObjectPose(np.array([xy[0], xy[1], rest_top + bottom_offset]), quaternion)
         drop = ObjectPose(np.array([xy[0], xy[1], drop_z]), quaternion)
-        return _Placement(rest, drop)
+        return _Placement.of(child, rest, drop)
+
+    def _interpenetrates(self, child: str, parent: str) -> bool:
+        """Whether the resting child overlaps a placed object other than its support (or a rack it
+        is meant to be under). Settling would push such objects apart, so the attempt is redrawn
+        (a deviation from the reference, whose samples only physics separated)."""
+        me = self.placed[child].rest_geometry
+        allowed = {child, parent, *(p.args[1] for p in self.props if p.predicate == "under" and p.args[0] == child)}
+        return any(
+            closest_distance(me, placement.rest_geometry) <= 0.0
+            for name, placement in self.placed.items()
+            if name not in allowed and name != self.held and object_spec(name).kind is not ObjectKind.TABLE
+        )
 
     def _accepts(self, child: str) -> bool:
         """Every ``free(child)`` and every zone proposition about ``child`` holds so far."""
-        scene = Scene(self.state(rest=True), self.props)
+        scene = _PlacedScene(self.placed, self.state(rest=True), self.props)
         return all(
             evaluate(p, scene)
             for p in self.props
@@ -483,6 +538,7 @@ __all__ = [
     "RobotPose",
     "SampledScene",
     "SamplingError",
+    "clear_cache",
     "random_robot_pose",
     "sample_initial_state",
     "sample_task",
