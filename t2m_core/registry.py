@@ -143,8 +143,10 @@ class Registry:
             builtin = _normalise(provider) == _normalise(BUILTIN_DISTRIBUTION)
             if not (builtin or autoload):
                 continue
+            # two distributions may use the same entry-point name: keep both, told apart by provider
+            name = entry_point.name if entry_point.name not in self._records else f"{provider}:{entry_point.name}"
             record = PluginRecord(
-                name=entry_point.name,
+                name=name,
                 module=entry_point.value,
                 provider=provider,
                 version=dist.version if dist is not None else "",
@@ -165,6 +167,8 @@ class Registry:
             plugin = importlib.import_module(module_name)
         except Exception as error:
             return self._record(record, error=error)
+        if self.plugin_manager.is_registered(plugin):  # already loaded through its entry point
+            return self._records[self.plugin_manager.get_name(plugin)]
         return self._add(plugin, record)
 
     def register_plugin(
@@ -210,8 +214,11 @@ class Registry:
 
     @property
     def plugins(self) -> list[PluginRecord]:
-        """Every plugin tried, loaded or failed, in load order."""
-        self._build_index()  # a registration hook that fails turns its plugin's record into a failure
+        """Every plugin tried, loaded or failed, in load order (duplicates are reported elsewhere)."""
+        try:
+            self._build_index()  # a registration hook that fails turns its plugin's record into a failure
+        except PluginError:
+            pass  # a duplicate name: components() and get() raise it; the plugin list stays available
         return list(self._records.values())
 
     def failed_plugins(self) -> list[PluginRecord]:

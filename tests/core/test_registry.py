@@ -183,3 +183,27 @@ def test_t2m_plugins_loads_modules_by_name(t2m_fake_distribution, monkeypatch) -
     missing = next(record for record in registry.plugins if record.name == "t2m_missing_plugin")
     assert missing.status == "failed: ModuleNotFoundError: No module named 't2m_missing_plugin'"
     assert missing.provider == "T2M_PLUGINS"
+
+
+def test_same_entry_point_name_from_two_distributions_is_a_duplicate_not_a_failure(t2m_fake_distribution) -> None:
+    for distribution in ("acme-t2m", "other-t2m"):
+        package = distribution.replace("-", "_")
+        t2m_fake_distribution(
+            distribution, entry_points={"camera": f"{package}.hooks"}, files={f"{package}/__init__.py": "", f"{package}/hooks.py": GOOD_HOOKS}
+        )
+    registry = get_registry()
+    with pytest.raises(PluginError) as raised:
+        registry.names("scene_parser")
+    assert "'acme-camera' is provided twice" in raised.value.message
+    # whichever is found second is registered as "<provider>:camera"
+    assert "acme-t2m 1.0.0 (plugin '" in raised.value.message and "other-t2m 1.0.0 (plugin '" in raised.value.message
+    names = {record.name for record in registry.plugins} & {"camera", "acme-t2m:camera", "other-t2m:camera"}
+    assert len(names) == 2 and "camera" in names
+
+
+def test_t2m_plugins_naming_an_entry_point_module_loads_it_once(monkeypatch) -> None:
+    monkeypatch.setenv("T2M_PLUGINS", "t2m_scene_truth.hooks")
+    registry = Registry.from_entry_points()
+    assert registry.names("scene_parser").count("ground-truth") == 1
+    assert [record.name for record in registry.plugins].count("scene_truth") == 1
+    assert not any(record.name == "t2m_scene_truth.hooks" for record in registry.plugins)
