@@ -200,24 +200,25 @@ def did_move(
 def convex_hull_2d(points: np.ndarray) -> np.ndarray:
     """Counter-clockwise convex hull ``(K, 2)`` of ``(M, 2)`` points (monotone chain; collinear
     points dropped). Degenerate inputs give 1 or 2 vertices."""
-    pts = np.unique(np.round(np.asarray(points, dtype=np.float64), 12), axis=0)
+    # Plain tuples: for the 8 corners of a part this is several times faster than NumPy set ops.
+    pts = sorted(set(map(tuple, np.round(np.asarray(points, dtype=np.float64), 12).tolist())))
     if len(pts) <= 2:
-        return pts
+        return np.array(pts, dtype=np.float64).reshape(-1, 2)
 
-    def cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    def cross(o: tuple, a: tuple, b: tuple) -> float:
         return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
 
-    lower: list[np.ndarray] = []
+    lower: list[tuple] = []
     for p in pts:
         while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
             lower.pop()
         lower.append(p)
-    upper: list[np.ndarray] = []
-    for p in pts[::-1]:
+    upper: list[tuple] = []
+    for p in reversed(pts):
         while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
             upper.pop()
         upper.append(p)
-    return np.array(lower[:-1] + upper[:-1])
+    return np.array(lower[:-1] + upper[:-1], dtype=np.float64)
 
 
 def _edge_normals(polygon: np.ndarray) -> np.ndarray:
