@@ -9,7 +9,7 @@ F_sat: any alternative whose every proposition holds.
 from __future__ import annotations
 
 import itertools
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 
 from t2m_core.domain.literals import (
@@ -73,7 +73,7 @@ class Goal:
     def __len__(self) -> int:
         return len(self.alternatives)
 
-    def __iter__(self):  # noqa: ANN204 - iterator of tuples of propositions
+    def __iter__(self) -> Iterator[tuple[Proposition, ...]]:
         return iter(self.alternatives)
 
     @property
