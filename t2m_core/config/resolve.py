@@ -20,7 +20,7 @@ import yaml
 from pydantic import BaseModel, ValidationError
 
 from t2m_core.config.models import COMPONENT_BLOCKS, RunConfig
-from t2m_core.errors import ConfigError, PluginError
+from t2m_core.errors import ConfigError, PluginError, T2MError
 
 if TYPE_CHECKING:
     from t2m_core.registry import Registry
@@ -129,8 +129,9 @@ def resolve_config(
         files: config files, merged in order (later wins).
         flags: named flags by name (``{"sim": "pybullet", "seed": 3}``); ``None`` values are ignored.
         overrides: ``"a.b=c"`` strings, applied last, in order.
-        registry: when given, component names must be registered and their options are validated
-            against (and filled in from) each plugin's options model.
+        registry: when given, the references are checked too: component names must be registered
+            (their options are validated against, and filled in from, each plugin's options model)
+            and the task must exist.
 
     Raises:
         ConfigError: listing every problem, one ``path: message (from source)`` line each.
@@ -189,7 +190,20 @@ def check_config(
         return None, [_issue_from_pydantic(issue, (), RunConfig, layers) for issue in error.errors()]
     if registry is None:
         return config, []
-    return _check_components(config, registry, layers)
+    resolved, issues = _check_components(config, registry, layers)
+    issues += _check_task(config, layers)
+    return (None if issues else resolved), issues
+
+
+def _check_task(config: RunConfig, layers: Sequence[_Layer]) -> list[ConfigIssue]:
+    from t2m_core.tasks.loader import load_task
+
+    try:
+        load_task(config.task)
+    except T2MError as error:
+        message = f"{error.message}; {error.hint}" if error.hint else error.message
+        return [ConfigIssue("task", message, _source_of(("task",), layers))]
+    return []
 
 
 def _select_component(merged: dict[str, Any], block: str, name: str) -> dict[str, Any]:
@@ -243,7 +257,7 @@ def _check_components(
             continue
         resolved[block]["options"] = options.model_dump(mode="json")
     if issues:
-        return None, issues
+        return config, issues
     return RunConfig.model_validate(resolved), []
 
 

@@ -205,3 +205,10 @@ def test_language_model_alias_implies_its_options() -> None:
     assert language_model("small") == {"name": "small", "options": {"model": "small-2", "timeout_s": 60.0}}
     assert language_model("small", "language_model.options.model=tiny")["options"]["model"] == "tiny"  # explicit wins
     assert language_model("acme/x9")["options"]["model"] == "acme/x9"
+
+
+def test_unknown_task_is_reported_with_a_suggestion(toy_registry: Registry) -> None:
+    _, issues = check_config(flags={"task": "tsk3"}, overrides=toy_components(), registry=toy_registry)
+    assert [(issue.path, issue.source) for issue in issues] == [("task", "named flags")]
+    assert issues[0].message.startswith("unknown task 'tsk3'; did you mean 'task3'?")
+    assert resolve_config(flags={"task": "task3"}, overrides=toy_components(), registry=toy_registry).task == "task3"
