@@ -350,7 +350,7 @@ _VALUE: dict[str, Callable[..., bool]] = {
     "on": _on,
     "inhand": _inhand,
 }
-# inoodzone's membership test is always true; its Zone says so.
+# Keyed in canonical order, so this table also checks PREDICATE_ORDER.
 assert tuple(_VALUE) == PREDICATE_ORDER
 
 
