@@ -72,6 +72,7 @@ class VideoWriter:
             raise ValueError(f"no frames were written to {self.path}")
         self._writer.close()
         self._writer = None
+        os.chmod(self._temporary, 0o644)  # mkstemp creates 0600; a video is for sharing
         os.replace(self._temporary, self.path)
         return self.path
 

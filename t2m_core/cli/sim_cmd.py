@@ -117,7 +117,7 @@ def run_demo(
     if out_dir is not None:
         from t2m_core.video import VideoWriter
 
-        video = VideoWriter(out_dir / "video.mp4", fps=30)
+        video = VideoWriter(out_dir / "video.mp4", fps=getattr(getattr(simulator, "options", None), "video_fps", 15))
         video.add(simulator.render())
         simulator.stream_frames(video.add) if hasattr(simulator, "stream_frames") else None
     failure = None
@@ -133,7 +133,7 @@ def run_demo(
         final_state = simulator.geometric_state()
         reached = bool(goal_satisfied_full(task.goal, final_state, task.initial_state))
         if video is not None:
-            for _ in range(15):  # half a second of the final scene
+            for _ in range(8):  # about half a second of the final scene
                 video.add(simulator.render())
     except BaseException:
         if video is not None:
@@ -169,6 +169,7 @@ def write_json_atomic(path: Path, content: Any) -> None:
         with os.fdopen(handle, "w") as stream:
             json.dump(content, stream, indent=2)
             stream.write("\n")
+        os.chmod(temporary, 0o644)
         os.replace(temporary, path)
     except BaseException:
         Path(temporary).unlink(missing_ok=True)

@@ -1,0 +1,63 @@
+import numpy as np
+import pytest
+
+mujoco = pytest.importorskip("mujoco")
+
+from t2m_mujoco.controller import InverseKinematics, null_target_facing  # noqa: E402
+from t2m_mujoco.robot_model import EE_OFFSET_FROM_LINK7, Q_HOME  # noqa: E402
+from t2m_mujoco.scene import build_scene  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return build_scene(("table", "rack", "hook", "red_box"))
+
+
+def test_home_pose_matches_reference(scene):
+    data = mujoco.MjData(scene.model)
+    data.qpos[scene.robot.arm_qpos] = Q_HOME
+    mujoco.mj_kinematics(scene.model, data)
+    ee = data.site_xpos[scene.robot.ee_site]
+    np.testing.assert_allclose(ee, [0.402, 0.0, 0.400], atol=2e-3)
+    rotation = data.site_xmat[scene.robot.ee_site].reshape(3, 3)
+    np.testing.assert_allclose(rotation[:, 2], [0, 0, -1], atol=1e-6)  # pointing down
+    link7 = scene.model.body("panda_link7").id
+    offset = rotation.T @ (ee - data.xpos[link7])
+    np.testing.assert_allclose(offset, [0, 0, EE_OFFSET_FROM_LINK7], atol=1e-9)
+
+
+def test_pads_close_along_world_y_at_home(scene):
+    data = mujoco.MjData(scene.model)
+    data.qpos[scene.robot.arm_qpos] = Q_HOME
+    data.qpos[scene.robot.finger_qpos] = 0.02
+    mujoco.mj_kinematics(scene.model, data)
+    left, right = (data.geom_xpos[g] for g in scene.robot.pad_geoms)
+    gap = left - right
+    assert abs(gap[0]) < 1e-9 and abs(gap[2]) < 1e-9 and abs(abs(gap[1]) - 0.05) < 1e-9
+
+
+def test_scene_objects_follow_specs(scene):
+    model = scene.model
+    assert model.body_mass[scene.body["rack"]] == pytest.approx(1.0)
+    assert model.body_mass[scene.body["hook"]] == pytest.approx(0.1)
+    assert model.body_mass[scene.body["red_box"]] == pytest.approx(0.1)
+    box = model.geom("red_box/body")
+    np.testing.assert_allclose(2 * box.size, [0.05, 0.05, 0.118])
+    np.testing.assert_allclose(box.rgba, [1, 0, 0, 1])
+    assert sum(1 for g in range(model.ngeom) if model.geom_bodyid[g] == scene.body["rack"]) == 7
+
+
+@pytest.mark.parametrize("position,yaw", [((0.5, 0.2, 0.03), 0.5), ((0.4, -0.3, 0.4), 1.0), ((0.65, 0.0, 0.05), 3.0)])
+def test_ik_reaches_table_poses(scene, position, yaw):
+    ik = InverseKinematics(scene.model, scene.robot)
+    target = np.array(position)
+    result = ik.solve(target, ik.target_rotation(yaw), Q_HOME, null_target_facing(target))
+    assert result.reachable, result
+    reached, rotation = ik.forward(result.q)
+    np.testing.assert_allclose(reached, target, atol=1e-4)
+
+
+def test_ik_reports_out_of_reach(scene):
+    ik = InverseKinematics(scene.model, scene.robot)
+    target = np.array([1.3, 0.0, 0.4])
+    assert not ik.solve(target, ik.target_rotation(0.0), Q_HOME, null_target_facing(target)).reachable
