@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 import yaml
 from pydantic import BaseModel, ValidationError
 
-from t2m_core.config.models import COMPONENT_BLOCKS, RunConfig
+from t2m_core.config.models import COMPONENT_BLOCKS, ComponentConfig, RunConfig
 from t2m_core.errors import ConfigError, PluginError, T2MError
 
 if TYPE_CHECKING:
@@ -185,21 +185,27 @@ def check_config(
     layers.append(set_layer)
 
     try:
-        config = RunConfig.model_validate(merged)
+        config: RunConfig | None = RunConfig.model_validate(merged)
+        issues: list[ConfigIssue] = []
     except ValidationError as error:
-        return None, [_issue_from_pydantic(issue, (), RunConfig, layers) for issue in error.errors()]
+        config, issues = None, [_issue_from_pydantic(issue, (), RunConfig, layers) for issue in error.errors()]
     if registry is None:
-        return config, []
-    resolved, issues = _check_components(config, registry, layers)
-    issues += _check_task(config, layers)
-    return (None if issues else resolved), issues
+        return config, issues
+    # references are checked even when the structure has problems, so one pass reports everything
+    resolved_blocks, reference_issues = _check_components(merged, registry, layers)
+    if isinstance(merged.get("task"), str):
+        reference_issues += _check_task(merged["task"], layers)
+    issues += reference_issues
+    if issues or config is None:
+        return None, issues
+    return RunConfig.model_validate({**merged, **resolved_blocks}), []
 
 
-def _check_task(config: RunConfig, layers: Sequence[_Layer]) -> list[ConfigIssue]:
+def _check_task(task: str, layers: Sequence[_Layer]) -> list[ConfigIssue]:
     from t2m_core.tasks.loader import load_task
 
     try:
-        load_task(config.task)
+        load_task(task)
     except T2MError as error:
         message = f"{error.message}; {error.hint}" if error.hint else error.message
         return [ConfigIssue("task", message, _source_of(("task",), layers))]
@@ -234,14 +240,21 @@ def _set_path(data: dict[str, Any], path: Sequence[str], value: Any, text: str) 
 
 
 def _check_components(
-    config: RunConfig, registry: Registry, layers: Sequence[_Layer]
-) -> tuple[RunConfig | None, list[ConfigIssue]]:
+    merged: Mapping[str, Any], registry: Registry, layers: Sequence[_Layer]
+) -> tuple[dict[str, Any], list[ConfigIssue]]:
+    """Each well-formed component block's name and options checked against the registry.
+
+    Returns the blocks with their options filled in from the plugins' models, and the issues found.
+    """
+    resolved: dict[str, Any] = {}
     issues: list[ConfigIssue] = []
-    resolved = config.model_dump()
     for block, kind in COMPONENT_BLOCKS.items():
-        component = getattr(config, block)
-        if component is None:
+        if merged.get(block) is None:
             continue
+        try:
+            component = ComponentConfig.model_validate(merged[block])
+        except ValidationError:
+            continue  # already reported by the structural check
         try:
             canonical, implied_options = _select(kind, component.name, component.options, registry)
             spec = registry.get(kind, canonical)
@@ -255,10 +268,8 @@ def _check_components(
             prefix = (block, "options")
             issues.extend(_issue_from_pydantic(issue, prefix, spec.options, layers) for issue in error.errors())
             continue
-        resolved[block]["options"] = options.model_dump(mode="json")
-    if issues:
-        return config, issues
-    return RunConfig.model_validate(resolved), []
+        resolved[block] = {"name": component.name, "options": options.model_dump(mode="json")}
+    return resolved, issues
 
 
 def _select(kind: str, name: str, options: dict[str, Any], registry: Registry) -> tuple[str, dict[str, Any]]:

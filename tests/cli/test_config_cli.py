@@ -52,12 +52,15 @@ def test_validate_reports_every_problem_with_its_path(tmp_path: Path) -> None:
     assert result.exit_code == 1
     report = json.loads(result.stdout)
     assert report["valid"] is False
-    assert [(error["path"], error["source"]) for error in report["errors"]] == [("output.vidoe", str(config))]
-    # structural errors come first; once fixed, the plugin's own options are checked
-    config.write_text("simulator: {name: toysim, options: {timestep: 0}}\n", encoding="utf-8")
+    # structural problems and the plugin's own option problems, in one pass
+    assert [(error["path"], error["source"]) for error in report["errors"]] == [
+        ("output.vidoe", str(config)),
+        ("simulator.options.timestep", str(config)),
+    ]
     result = runner.invoke(app, ["config", "validate", "-c", str(config), *TOY_SELECTION[2:]])
     assert result.exit_code == 1
-    assert "simulator.options.timestep: Input should be greater than 0" in result.stderr
+    assert "✗ output.vidoe: unknown key; did you mean 'video'?" in result.stderr
+    assert "✗ simulator.options.timestep: Input should be greater than 0" in result.stderr
 
 
 def test_validate_accepts_a_good_config() -> None:
