@@ -149,6 +149,9 @@ class World:
 
     def geometric_state(self) -> GeometricState:
         """Object poses in task order, the EE point and orientation relative to home, the held object."""
+        # After mj_step the kinematic fields describe the state before the last substep; recompute
+        # them so a state read after stepping equals the same state read after a restore.
+        self._mujoco.mj_kinematics(self.model, self.data)
         position, rotation = self.ee_pose()
         relative = rotation @ self.ik.home_rotation.T
         return GeometricState(

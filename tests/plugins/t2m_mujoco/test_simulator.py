@@ -99,6 +99,7 @@ def test_colours_are_legible(sim):
     """The boxes' colours are those of their names, and visible from the default camera."""
     sim.reset(load_task("task2"), seed=0)
     image = sim.render("top").astype(int)
-    red = (image[..., 0] > 180) & (image[..., 1] < 60) & (image[..., 2] < 60)
-    blue = (image[..., 2] > 180) & (image[..., 0] < 60) & (image[..., 1] < 60)
+    # a pixel is "red" when its red channel exceeds both others by a wide margin (lighting shades it)
+    red = image[..., 0] - np.maximum(image[..., 1], image[..., 2]) > 80
+    blue = image[..., 2] - np.maximum(image[..., 0], image[..., 1]) > 80
     assert red.sum() > 5 and blue.sum() > 5
