@@ -1,0 +1,88 @@
+"""GBNF grammars (llama.cpp constrained decoding) for goals, skill lists and skill sequences, built
+from the scene's objects, so a constrained model can only write well-formed answers that name
+objects that exist.
+
+Every answer may start with one space (the prompt's query line ends at its colon). Lists are bounded (at most ``max_alternatives`` goal alternatives, ``k`` skills, ``d_max`` skills per
+sequence) so a constrained small model cannot loop until it runs out of tokens.
+
+Goal propositions are restricted to 𝒫 (§3.4) by construction except for ``x = y`` pairs, which
+:func:`~t2m_core.domain.goals.validate_goal` still rejects. Skill calls can optionally be typed
+(``pick`` only movable objects, ``push`` only ``box, hook, rack``...); by default any scene object
+fits any argument, as INST (text2motion.md §9.2) leaves semantic validity to the Q-functions.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+
+from t2m_core.domain.objects import OBJECTS
+from t2m_core.domain.skills import SKILLS, STOP
+
+MAX_GOAL_ALTERNATIVES = 8
+MAX_PROPOSITIONS_PER_ALTERNATIVE = 6
+
+
+def _literal(text: str) -> str:
+    return json.dumps(text)
+
+
+def _alternation(options: Sequence[str]) -> str:
+    return "(" + " | ".join(_literal(option) for option in options) + ")"
+
+
+def _repeat(item: str, at_least: int, at_most: int) -> str:
+    """``item ("," ws item){at_least-1, at_most-1}`` as GBNF."""
+    return f'{item} ("," ws {item}){{{max(at_least - 1, 0)},{max(at_most - 1, 0)}}}'
+
+
+_COMMON = 'ws ::= " "?\nq ::= "\'"\n'
+
+
+def goal_grammar(
+    objects: Sequence[str],
+    max_alternatives: int = MAX_GOAL_ALTERNATIVES,
+    max_propositions: int = MAX_PROPOSITIONS_PER_ALTERNATIVE,
+) -> str:
+    """Grammar of ``[['on(a, b)', ...], ...]`` over this scene's objects."""
+    return (
+        f'root ::= ws "[" {_repeat("alt", 1, max_alternatives)} "]"\n'
+        f'alt ::= "[" {_repeat("prop", 1, max_propositions)} "]"\n'
+        'prop ::= q (binary | inhand) q\n'
+        'binary ::= ("on" | "under") "(" obj "," ws obj ")"\n'
+        'inhand ::= "inhand(" obj ")"\n'
+        f"obj ::= {_alternation(objects)}\n" + _COMMON
+    )
+
+
+def _call_rules(objects: Sequence[str], typed: bool, allow_stop: bool) -> str:
+    """Rules ``call`` (one skill call) and the object classes it needs."""
+    rules, alternatives = [], []
+    for signature in SKILLS.values():
+        parts = []
+        for index, parameter in enumerate(signature.parameters):
+            allowed = [name for name in objects if not typed or (name in OBJECTS and OBJECTS[name].kind in parameter.kinds)]
+            if not allowed:
+                break
+            rule = f"{signature.name}-arg{index}"
+            rules.append(f"{rule} ::= {_alternation(allowed)}")
+            parts.append(rule)
+        else:
+            alternatives.append(f'"{signature.name}(" ' + ' "," ws '.join(parts) + ' ")"')
+    if allow_stop:
+        alternatives.append(_literal(f"{STOP.name}()"))
+    return "call ::= " + " | ".join(alternatives) + "\n" + "\n".join(rules) + "\n"
+
+
+def skill_list_grammar(objects: Sequence[str], k: int = 5, *, typed: bool = False, allow_stop: bool = False) -> str:
+    """Grammar of ``['pick(a)', 'place(a, b)', ...]`` with 1..k calls over this scene's objects."""
+    return f'root ::= ws "[" {_repeat("item", 1, k)} "]"\nitem ::= q call q\n' + _call_rules(objects, typed, allow_stop) + _COMMON
+
+
+def skill_sequences_grammar(objects: Sequence[str], k: int = 5, d_max: int = 10, *, typed: bool = False) -> str:
+    """Grammar of ``[['pick(a)', ...], ...]``: 1..k sequences of 1..d_max calls."""
+    return (
+        f'root ::= ws "[" {_repeat("seq", 1, k)} "]"\n'
+        f'seq ::= "[" {_repeat("item", 1, d_max)} "]"\n'
+        "item ::= q call q\n" + _call_rules(objects, typed, False) + _COMMON
+    )

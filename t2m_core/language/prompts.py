@@ -1,0 +1,281 @@
+"""Prompt builders for goal prediction, shooting, next-skill generation and candidate scoring
+(text2motion.md §10), shared by every planner.
+
+Layout (§10.2)::
+
+    <header lines>                      primitives (planning prompts only), predicates
+    <in-context example 1>              objects, relationships, instruction, goal [, plan]
+    <blank line>
+    ...
+    <in-context example 10>
+    <blank line>
+    <current block>                     objects, relationships, instruction [, predicted goal, history]
+    <query line>
+
+All 10 in-context examples (:mod:`t2m_core.language.examples`) are used, in an order shuffled once per
+run with the run seed (:func:`examples_for_seed`).
+
+Usage::
+
+    prompts = PromptBuilder(seed=3)
+    text = prompts.goal(scene)                                  # -> model.complete(text, **GOAL_REQUEST)
+    text = prompts.next_skill(scene, goal, history)             # -> parse K candidates
+    prompt, continuations = scoring_request(prompts.scoring_context(scene, goal, history), candidates)
+    logprobs = model.score(prompt, continuations)
+"""
+
+from __future__ import annotations
+
+import functools
+import random
+from collections.abc import Sequence
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from t2m_core.domain.goals import Goal
+from t2m_core.domain.literals import format_string_list
+from t2m_core.domain.skills import SKILLS, STOP
+from t2m_core.errors import T2MError
+from t2m_core.language.scene_description import SceneDescription
+
+K = 5
+"""Skills or skill sequences proposed per query (appendix, §9.1)."""
+
+PREDICATES = ("on(a, b)", "inhand(a)", "under(a, b)")
+"""Goal predicates in the order the header lists them (§10.1)."""
+
+PRIMITIVES_LABEL = "Available primitives: "
+PREDICATES_LABEL = "Available predicates: "
+GOAL_LABEL = "Goal predicate set: "
+PREDICTED_GOAL_LABEL = "Predicted goal predicate set: "
+PLAN_LABEL = "Top robot action sequence: "
+EXECUTED_LABEL = "Executed action:"
+NEW_RELATIONSHIPS_LABEL = "New object relationships: "
+
+# Query lines end at the colon, without the reference's trailing space (a documented deviation):
+# BPE tokenizers merge the space into the answer's first token (" [["), so a prompt that ends in a
+# bare space puts the model off-distribution; the examples' "label: [..." spelling is unchanged.
+GOAL_QUERY = "Predicted goal predicate set (python list of lists):"
+INSTRUCTION_ACHIEVED_QUERY = "Instruction achieved (True/False):"
+
+
+def shooting_query(k: int = K) -> str:
+    """``Top 5 robot action sequences (python list of lists):``."""
+    return f"Top {k} robot action sequences (python list of lists):"
+
+
+def next_skill_query(k: int = K) -> str:
+    """``Top 5 valid next robot actions (single python list of primitives):``."""
+    return f"Top {k} valid next robot actions (single python list of primitives):"
+
+
+# Stop sequences and token budgets (§10.4-§10.6). Every answer is one line in the examples, so a
+# newline also ends it (a documented addition: it stops small models that ramble into a new block).
+GOAL_REQUEST: dict[str, Any] = {
+    "max_tokens": 200,
+    "stop": ["\n", "Available scene objects:", "Human instruction:", PLAN_LABEL.strip()],
+    "temperature": 0.0,
+}
+SHOOTING_REQUEST: dict[str, Any] = {
+    "max_tokens": 500,
+    "stop": ["\n", EXECUTED_LABEL, "New", PLAN_LABEL.strip(), "```"],
+    "temperature": 0.0,
+}
+NEXT_SKILL_REQUEST: dict[str, Any] = {"max_tokens": 100, "stop": ["\n"], "temperature": 0.0}
+
+
+# --------------------------------------------------------------------------------------------------
+# In-context examples
+# --------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Example:
+    """One in-context example (tasks.md §7.2).
+
+    Attributes:
+        objects: scene objects, ``table`` first.
+        relationships: on/under/inhand relations of the start scene.
+        instruction: one sentence.
+        goal: the goal alternatives, list of lists of proposition strings.
+        plan: skill calls that solve it from the start scene.
+    """
+
+    objects: tuple[str, ...]
+    relationships: tuple[str, ...]
+    instruction: str
+    goal: tuple[tuple[str, ...], ...]
+    plan: tuple[str, ...]
+
+
+DEFAULT_EXAMPLES = "tableenv.yaml"
+"""The shipped example set under ``t2m_core/language/examples/``."""
+
+
+def load_examples(path: str | Path | None = None) -> tuple[Example, ...]:
+    """Examples from a YAML file (``examples: [{objects, relationships, instruction, goal, plan}]``);
+    the shipped set by default.
+
+    Raises:
+        T2MError: a missing field or a wrongly typed value, naming the example.
+    """
+    if path is None:
+        return _shipped_examples()
+    return _parse_examples(Path(path).read_text(encoding="utf-8"), str(path))
+
+
+@functools.cache
+def _shipped_examples() -> tuple[Example, ...]:
+    text = resources.files("t2m_core.language").joinpath("examples", DEFAULT_EXAMPLES).read_text(encoding="utf-8")
+    return _parse_examples(text, DEFAULT_EXAMPLES)
+
+
+def _parse_examples(text: str, source: str) -> tuple[Example, ...]:
+    data = yaml.safe_load(text)
+    entries = data.get("examples") if isinstance(data, dict) else None
+    if not isinstance(entries, list) or not entries:
+        raise T2MError(f"{source}: expected a top-level 'examples' list", hint="see t2m_core/language/examples/tableenv.yaml")
+    examples = []
+    for index, entry in enumerate(entries, start=1):
+        try:
+            examples.append(
+                Example(
+                    objects=tuple(_strings(entry["objects"])),
+                    relationships=tuple(_strings(entry["relationships"])),
+                    instruction=str(entry["instruction"]).strip(),
+                    goal=tuple(tuple(_strings(alternative)) for alternative in entry["goal"]),
+                    plan=tuple(_strings(entry["plan"])),
+                )
+            )
+        except (KeyError, TypeError) as error:
+            raise T2MError(
+                f"{source}: example {index} is malformed ({error})",
+                hint="each example needs objects, relationships, instruction, goal (list of lists) and plan",
+            ) from None
+    return tuple(examples)
+
+
+def _strings(value: Any) -> list[str]:
+    if not isinstance(value, list) or not all(isinstance(item, str) for item in value):
+        raise TypeError(f"expected a list of strings, got {value!r}")
+    return value
+
+
+def examples_for_seed(seed: int, examples: Sequence[Example] | None = None) -> tuple[Example, ...]:
+    """All examples, shuffled deterministically by ``seed`` (§10.3: once per run)."""
+    ordered = list(load_examples() if examples is None else examples)
+    random.Random(seed).shuffle(ordered)
+    return tuple(ordered)
+
+
+# --------------------------------------------------------------------------------------------------
+# Prompt parts
+# --------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class HistoryStep:
+    """One planned or executed skill in the current block (§10.6).
+
+    Attributes:
+        action: the skill call text, ``"pick(hook)"``.
+        relationships: relations after it (predicted while planning, observed when executed);
+            ``None`` omits the ``New object relationships`` line (saycan-gs).
+    """
+
+    action: str
+    relationships: tuple[str, ...] | None = None
+
+
+def primitives(myopic: bool = False) -> list[str]:
+    """``['pick(a)', 'place(a, b)', 'pull(a, hook)', 'push(a, hook, rack)']`` (+ ``'stop()'``)."""
+    return [str(signature) for signature in SKILLS.values()] + ([str(STOP)] if myopic else [])
+
+
+def _header(planning: bool, myopic: bool) -> list[str]:
+    lines = [PRIMITIVES_LABEL + format_string_list(primitives(myopic))] if planning else []
+    return lines + [PREDICATES_LABEL + format_string_list(PREDICATES)]
+
+
+def _example_block(example: Example, planning: bool, myopic: bool) -> list[str]:
+    lines = [
+        f"Available scene objects: {format_string_list(example.objects)}",
+        f"Object relationships: {format_string_list(example.relationships)}",
+        f"Human instruction: {example.instruction}",
+        GOAL_LABEL + "[" + ", ".join(format_string_list(alternative) for alternative in example.goal) + "]",
+    ]
+    if planning:
+        plan = list(example.plan) + (["stop()"] if myopic else [])
+        lines.append(PLAN_LABEL + format_string_list(plan))
+    return lines
+
+
+def _history_lines(history: Sequence[HistoryStep]) -> list[str]:
+    lines = []
+    for step in history:
+        lines.append(f"{EXECUTED_LABEL} {step.action}")
+        if step.relationships is not None:
+            lines.append(NEW_RELATIONSHIPS_LABEL + format_string_list(step.relationships))
+    return lines
+
+
+def _assemble(header: list[str], blocks: list[list[str]], current: list[str]) -> str:
+    parts = ["\n".join(header)]
+    parts += ["\n".join(block) for block in blocks]
+    return "\n\n".join(parts) + "\n\n" + "\n".join(current)
+
+
+class PromptBuilder:
+    """Builds every prompt of one run with one example order.
+
+    Args:
+        seed: the run seed; fixes the example order.
+        examples: the example set (default: the shipped one).
+        k: candidates per query (K = 5).
+        myopic: prompts of the saycan-gs / innermono-gs baselines (``stop()`` is a primitive and every
+            example plan ends with it).
+    """
+
+    def __init__(self, seed: int = 0, examples: Sequence[Example] | None = None, k: int = K, myopic: bool = False) -> None:
+        self.examples = examples_for_seed(seed, examples)
+        self.k = k
+        self.myopic = myopic
+
+    def goal(self, scene: SceneDescription) -> str:
+        """Goal-prediction prompt (§10.4), ending with the goal query line."""
+        header = _header(planning=False, myopic=False)
+        blocks = [_example_block(example, planning=False, myopic=False) for example in self.examples]
+        return _assemble(header, blocks, [*scene.lines(), GOAL_QUERY])
+
+    def _planning_context(self, scene: SceneDescription, goal: Goal | str, history: Sequence[HistoryStep]) -> list[str]:
+        return [*scene.lines(), PREDICTED_GOAL_LABEL + str(goal), *_history_lines(history)]
+
+    def _planning(self, current: list[str]) -> str:
+        header = _header(planning=True, myopic=self.myopic)
+        blocks = [_example_block(example, planning=True, myopic=self.myopic) for example in self.examples]
+        return _assemble(header, blocks, current)
+
+    def shooting(self, scene: SceneDescription, goal: Goal | str, history: Sequence[HistoryStep] = ()) -> str:
+        """Shooting prompt (§10.5): K whole sequences, continuing ``history`` when it is not empty."""
+        return self._planning([*self._planning_context(scene, goal, history), shooting_query(self.k)])
+
+    def next_skill(self, scene: SceneDescription, goal: Goal | str, history: Sequence[HistoryStep] = ()) -> str:
+        """Next-skill prompt (§10.6): K candidate next skills."""
+        return self._planning([*self._planning_context(scene, goal, history), next_skill_query(self.k)])
+
+    def scoring_context(self, scene: SceneDescription, goal: Goal | str, history: Sequence[HistoryStep] = ()) -> str:
+        """The next-skill prompt without its query line (§10.7), ending with a newline."""
+        return self._planning(self._planning_context(scene, goal, history)) + "\n"
+
+
+def scoring_request(context: str, candidates: Sequence[str]) -> tuple[str, list[str]]:
+    """The prompt and continuations to pass to :meth:`LanguageModel.score` (§10.7, §11.3).
+
+    The prompt ends with ``Executed action:``; each continuation is ``" " + candidate``, so the
+    summed log-probability covers the leading space and every candidate token, with no terminator.
+    """
+    return context + EXECUTED_LABEL, [" " + candidate for candidate in candidates]
