@@ -119,7 +119,8 @@ def run_demo(
 
         video = VideoWriter(out_dir / "video.mp4", fps=getattr(getattr(simulator, "options", None), "video_fps", 15))
         video.add(simulator.render())
-        simulator.stream_frames(video.add) if hasattr(simulator, "stream_frames") else None
+        if hasattr(simulator, "stream_frames"):  # optional: backends without it give a still video
+            simulator.stream_frames(video.add)
     failure = None
     try:
         for call, tries, action in zip(task.reference_skeleton, search.tries, [*search.actions, *[None] * len(task.reference_skeleton)], strict=False):
