@@ -79,6 +79,8 @@ MAX_SEED_ATTEMPTS = 1000
 """Candidate seeds tried before :func:`sample_initial_state` gives up."""
 TIPPED_DROP_SCALE = 0.8
 """A tipped object is dropped from parent_top + 0.8·max(size_x, size_y) (§7.1 ``tippable``)."""
+FREE_DISTANCE_HORIZON = 0.15
+"""Distances beyond this (metres) need not be exact while sampling: ``free`` thresholds are ≤ 0.10 m."""
 HOME_EE_POSITION = np.array([0.402, 0.0, MAX_LIFT_HEIGHT])
 """``(3,)`` the home EE pose (tableenv.md §3.1), where ``inhand`` puts the grasp, metres."""
 
@@ -247,6 +249,19 @@ class _PlacedScene(Scene):
     def geometry(self, name: str) -> ObjectGeometry:
         placement = self._placed.get(name)
         return placement.rest_geometry if placement is not None else super().geometry(name)
+
+    def distance(self, a: str, b: str) -> float:
+        """Exact up to :data:`FREE_DISTANCE_HORIZON`; beyond it the (cheaper) AABB gap, a lower bound.
+        Only ``free`` asks for distances, and it compares them with thresholds ≤ 0.10 m."""
+        gap = _aabb_gap(self.geometry(a).aabb, self.geometry(b).aabb)
+        return gap if gap > FREE_DISTANCE_HORIZON else super().distance(a, b)
+
+
+def _aabb_gap(box_a: np.ndarray, box_b: np.ndarray) -> float:
+    """Euclidean gap between two ``(2, 3)`` AABBs, metres (0 when they overlap): a lower bound of the
+    distance between anything inside them."""
+    separation = np.maximum(0.0, np.maximum(box_a[0] - box_b[1], box_b[0] - box_a[1]))
+    return float(np.linalg.norm(separation))
 
 
 @dataclass
@@ -503,7 +518,8 @@ class _SceneSampler:
         me = self.placed[child].rest_geometry
         allowed = {child, parent, *(p.args[1] for p in self.props if p.predicate == "under" and p.args[0] == child)}
         return any(
-            closest_distance(me, placement.rest_geometry) <= 0.0
+            _aabb_gap(me.aabb, placement.rest_geometry.aabb) <= 0.0
+            and closest_distance(me, placement.rest_geometry) <= 0.0
             for name, placement in self.placed.items()
             if name not in allowed and name != self.held and object_spec(name).kind is not ObjectKind.TABLE
         )
