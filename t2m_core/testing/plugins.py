@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 import json
 import os
 import re
@@ -64,7 +65,11 @@ def check_plugin_module(module: ModuleType, *, import_factories: bool = True) ->
     record = registry.register_plugin(module, name=module.__name__)
     assert record.error is None, f"{module.__name__} cannot be registered: {record.error}"
     unknown = [
-        name for name in dir(module) if name.startswith("t2m_") and name not in hookspecs.REGISTRATION_HOOKS.values()
+        name
+        for name in dir(module)
+        if name.startswith("t2m_")
+        and inspect.isroutine(getattr(module, name))
+        and name not in hookspecs.REGISTRATION_HOOKS.values()
     ]
     assert not unknown, f"{module.__name__} defines functions that are not t2m hooks: {', '.join(unknown)}"
     specs = [entry.spec for entry in registry.components()]
