@@ -11,10 +11,10 @@ API (small and stable; everything else is private)::
     from t2m_core.registry import get_registry
 
     registry = get_registry()                                  # cached, loaded from entry points
-    sim = registry.create("simulator", "mujoco", {"render": False})   # validated options -> component
+    sim = registry.create("simulator", "mujoco", {"substeps": 8})   # validated options -> component
     spec = registry.get("language_model", "gpt-4")             # alias -> spec; unknown -> PluginError
     registry.names("scene_parser")                             # ["ground-truth", ...]
-    registry.validate_options("simulator", "mujoco", {...})    # -> the plugin's pydantic options model
+    registry.validate_options("simulator", "mujoco", {})       # -> the plugin's pydantic options model
     registry.components()                                      # every (kind, spec, provider) row
     registry.plugins                                           # every loaded or failed plugin
 

@@ -56,6 +56,7 @@ def list_plugins(
     """List every component (kind, name, aliases, provider distribution and version, status).
 
     A plugin that fails to import is listed as failed with its error; the exit status stays 0.
+    T2M_DISABLE_PLUGIN_AUTOLOAD=1 lists the builtins only; T2M_PLUGINS=pkg.hooks adds modules by name.
     """
     rows = plugin_rows()
     if as_json:
