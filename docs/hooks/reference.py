@@ -7,7 +7,7 @@ A page includes a generated block with a marker line ``<!-- t2m:NAME -->``:
 - ``config-keys``: every run-config key with type, default and description (from the pydantic models);
 - ``config-schema``: the full JSON schema;
 - ``hooks``: every hook specification with its docstring (from ``t2m_core.hookspecs``);
-- ``plugins``: the components registered by the installed plugins.
+- ``plugins``: the components registered by the installed plugins, with their options.
 """
 
 from __future__ import annotations
@@ -150,14 +150,33 @@ def _indented_blocks_to_fences(text: str) -> str:
 
 
 def plugins_reference() -> str:
-    from t2m_core.cli.plugins_cmd import plugin_rows
+    from t2m_core.registry import get_registry
 
+    entries = get_registry().components()
     rows = ["| Kind | Name | Aliases | Provider | Summary |", "|---|---|---|---|---|"]
-    for row in plugin_rows():
-        if row["kind"] is None:
-            continue
-        aliases = ", ".join(f"`{alias}`" for alias in row["aliases"])
-        rows.append(f"| {row['kind']} | `{row['name']}` | {aliases} | {row['provider']} | {row['summary']} |")
+    for entry in entries:
+        aliases = ", ".join(f"`{alias}`" for alias in entry.spec.aliases)
+        rows.append(f"| {entry.kind} | `{entry.spec.name}` | {aliases} | {entry.plugin.provider} | {entry.spec.summary} |")
+    sections = ["\n".join(rows), ""]
+    for entry in entries:
+        sections += [f"### {entry.kind.replace('_', ' ')} `{entry.spec.name}`", "", entry.spec.summary, ""]
+        sections.append(_options_table(entry.spec.options.model_json_schema()))
+    return "\n".join(sections) + "\n"
+
+
+def _options_table(schema: dict[str, Any]) -> str:
+    """Markdown table of a component's options (name, type, default, meaning), from its JSON schema."""
+    properties = schema.get("properties", {})
+    if not properties:
+        return "No options.\n"
+    rows = ["| Option | Type | Default | Meaning |", "|---|---|---|---|"]
+    for name, node in properties.items():
+        options = node.get("anyOf", [node])
+        kinds = [" or ".join(f"`{json.dumps(value)}`" for value in option["enum"]) if "enum" in option else option.get("type", "any") for option in options]
+        kind = " or ".join(kinds).replace("|", "\\|")
+        default = f"`{json.dumps(node['default'])}`" if "default" in node else "required"
+        description = node.get("description", "").replace("|", "\\|").replace("\n", " ")
+        rows.append(f"| `{name}` | {kind} | {default} | {description} |")
     return "\n".join(rows) + "\n"
 
 
