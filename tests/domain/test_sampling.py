@@ -55,24 +55,24 @@ def assert_valid(scene: SampledScene, objects, propositions) -> None:
 # --------------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("task_id", sorted(TASKS))
-def test_first_seeds_of_every_task_are_valid(task_id: str) -> None:
+def check_task_seeds(task_id: str, seeds: range) -> None:
     task = TASKS[task_id]
-    for seed in range(3):
+    for seed in seeds:
         scene = sample_task(task, seed)
         assert scene.accepted_seed == seed + scene.rejections
         assert_valid(scene, task.objects, task.initial_state)
         assert holds_all(task.initial_state, scene.state)
 
 
+@pytest.mark.parametrize("task_id", sorted(TASKS))
+def test_first_seeds_of_every_task_are_valid(task_id: str) -> None:
+    check_task_seeds(task_id, range(3))
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("task_id", sorted(TASKS))
 def test_seeds_0_to_99_of_every_task_are_valid(task_id: str) -> None:
-    task = TASKS[task_id]
-    for seed in range(100):
-        scene = sample_task(task, seed)
-        assert scene.accepted_seed == seed + scene.rejections
-        assert_valid(scene, task.objects, task.initial_state)
+    check_task_seeds(task_id, range(100))
 
 
 def test_determinism_per_seed() -> None:
