@@ -7,6 +7,7 @@ to the target, the base point is the target's xy at the sweep height 0.03 m. The
 
 from __future__ import annotations
 
+from abc import abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -82,10 +83,9 @@ class HookSweep(Primitive):
         # The polar frame points from the base to the target; behind the base it is meaningless.
         return "target_behind_robot" if state.objects[arguments[0]].position[0] < 0.0 else None
 
+    @abstractmethod
     def heuristic_reach(self, arguments: Sequence[str]) -> float:
-        """Reach radius that puts the hook just behind the target: the sign convention differs
-        between Pull and Push (§10.5, §10.6), metres."""
-        raise NotImplementedError
+        """Heuristic r_reach in metres (§10.5, §10.6); Pull and Push place the hook differently."""
 
     def heuristic_physical(self, state: GeometricState, arguments: Sequence[str], rng: np.random.Generator) -> np.ndarray:
         """Uniform, except r_reach from :meth:`heuristic_reach` and θ = π/8."""
