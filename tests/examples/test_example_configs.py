@@ -8,7 +8,7 @@ import pytest
 
 from t2m_core.config import RunConfig, resolve_config
 from t2m_core.errors import ConfigError
-from t2m_core.registry import get_registry
+from t2m_core.registry import Registry, get_registry
 from tests.examples.scene_file_install import install_example
 
 CONFIGS = Path(__file__).parents[2] / "examples" / "configs"
@@ -30,8 +30,9 @@ def test_hosted_llm_selects_litellm_with_the_alias_model() -> None:
 
 
 def test_measured_scene_validates_once_the_example_plugin_is_installed(t2m_fake_distribution, monkeypatch) -> None:
+    builtins_only = Registry.from_entry_points(autoload=False)
     with pytest.raises(ConfigError, match="unknown scene parser 'scene-file'"):
-        resolve_config([CONFIGS / "measured-scene.yaml"], registry=get_registry())
+        resolve_config([CONFIGS / "measured-scene.yaml"], registry=builtins_only)
     install_example(t2m_fake_distribution, monkeypatch)
     config = resolve_config([CONFIGS / "measured-scene.yaml"], registry=get_registry())
     assert config.scene_parser.options == {"path": "examples/t2m-scene-file/scenes/example.yaml", "size_tolerance": 0.01}
