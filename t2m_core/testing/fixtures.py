@@ -7,7 +7,8 @@
 - ``t2m_fake_distribution``: ``t2m_fake_distribution("acme-t2m", entry_points={...}, files={...})``
   writes an installed-looking distribution into a temporary folder on ``sys.path`` and makes the
   next :func:`~t2m_core.registry.get_registry` discover it through its entry points; all of it is
-  removed at teardown.
+  removed at teardown. It reloads the process-wide registry, so it replaces a ``t2m_registry``
+  requested by the same test: use one or the other.
 
 This module is imported by every pytest run in an environment where t2m is installed: keep it light.
 """
