@@ -1,14 +1,13 @@
 """Run configuration: models (:mod:`.models`), resolution from files, flags and overrides
-(:mod:`.resolve`), and the JSON schema (:mod:`.schema`)."""
+(:mod:`.resolve`), reading and writing files (:mod:`.files`), and the JSON schema (:mod:`.schema`)."""
 
+from t2m_core.config.files import config_to_yaml, load_yaml_file, write_config
 from t2m_core.config.models import COMPONENT_BLOCKS, ComponentConfig, OutputSettings, RunConfig, RunSettings
 from t2m_core.config.resolve import (
     NAMED_FLAGS,
     ConfigIssue,
     check_config,
-    config_to_yaml,
     deep_merge,
-    load_yaml_file,
     parse_override,
     resolve_config,
 )
@@ -29,4 +28,5 @@ __all__ = [
     "parse_override",
     "resolve_config",
     "run_config_schema",
+    "write_config",
 ]
