@@ -111,6 +111,7 @@ class MujocoSimulator:
                     "reasons": dict(reasons),
                 }
                 world.ticks = 0
+                world.canonicalize()
                 state = world.geometric_state()
                 return ResetResult(
                     state=state,
@@ -183,6 +184,7 @@ class MujocoSimulator:
         start = world.geometric_state()
         arguments = spec.check_arguments(start, arguments)
         self._frames = []
+        world.canonicalize()
         executor.begin_primitive()
         contacts: list[Contact] = []
         reason = spec.precheck(start, arguments, action)

@@ -118,7 +118,12 @@ class World:
         return float(np.linalg.norm(velocity[3:])), float(np.linalg.norm(velocity[:3]))
 
     def reset_robot(self, q: np.ndarray = Q_HOME) -> None:
-        """Set the joints directly (no simulation) and open the gripper (tableenv.md §3.3 robot reset)."""
+        """Clear the whole simulation state (velocities, warm start, time, sleep), set the joints
+        directly (no simulation) and open the gripper (tableenv.md §3.3 robot reset). Clearing
+        everything makes a reset independent of what was simulated before it."""
+        self._mujoco.mj_resetData(self.model, self.data)
+        self.ticks = 0
+        self._previous_twist = None
         data = self.data
         data.qpos[self.robot.arm_qpos] = q
         data.qvel[self.robot.arm_dof] = 0.0
@@ -244,6 +249,12 @@ class World:
 
     # --- snapshots --------------------------------------------------------------------------------
 
+    def canonicalize(self) -> None:
+        """Round-trip through a snapshot: every body awake, nothing else changed. The simulator does
+        this before each primitive, so a primitive run straight after another one and the same
+        primitive run after :meth:`restore` follow bit-identical trajectories."""
+        self.restore(self.snapshot())
+
     def snapshot(self) -> Snapshot:
         mujoco = self._mujoco
         size = mujoco.mj_stateSize(self.model, self._state_spec)
@@ -261,6 +272,9 @@ class World:
                 f"snapshot of scene {snapshot.scene} cannot be restored into scene {self.scene.object_names}"
             )
         mujoco = self._mujoco
+        # MuJoCo's sleep bookkeeping is not part of any mjSTATE; resetting the data first wakes
+        # every body, so a restore always yields the same (all-awake) simulation state.
+        mujoco.mj_resetData(self.model, self.data)
         mujoco.mj_setState(self.model, self.data, snapshot.physics, self._state_spec)
         self.held = snapshot.held
         if snapshot.held:

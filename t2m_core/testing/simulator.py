@@ -10,8 +10,8 @@ Every backend must pass them; a third-party backend runs them in its own tests::
 Checked, per task and seed: seeded resets are deterministic (same accepted seed, same state,
 bit-identical observations); the observation is ``(8, 12) float32`` with row 0 the end effector and
 rows 1..N the task's objects in order, each matching the state; ``get_state``/``set_state``
-restores a snapshot exactly (re-executing the same primitive from it gives the same result and
-state); and primitive results are consistent with the domain (reasons from the failure vocabulary,
+restores a snapshot exactly (re-executing the same primitive from it, or straight after a fresh
+reset, gives the same result and state; a reset does not depend on earlier simulation); and primitive results are consistent with the domain (reasons from the failure vocabulary,
 ``truncated`` matching the reason, ``success`` agreeing with the primitive's own post-conditions on
 the reported states).
 """
@@ -118,6 +118,16 @@ def check_simulator(
                     f"{task_id} seed {seed}: {call} from a restored snapshot gave {again.failure!r}, first {result.failure!r}"
                 )
                 _assert_states_equal(again.state, result.state, f"{task_id} seed {seed}: replay from snapshot", atol=1e-9)
+                # straight from a reset (no restore in between) gives the same result too, and a
+                # reset does not depend on what was simulated before it
+                again_reset = first.reset(task, seed=seed)
+                np.testing.assert_array_equal(again_reset.observation, reset_b.observation,
+                                              err_msg=f"{task_id} seed {seed}: reset depends on earlier simulation")
+                direct = first.execute(call.name, call.args, action)
+                assert (direct.success, direct.failure) == (result.success, result.failure), (
+                    f"{task_id} seed {seed}: {call} straight after reset gave {direct.failure!r}, from a snapshot {result.failure!r}"
+                )
+                _assert_states_equal(direct.state, result.state, f"{task_id} seed {seed}: run without restore", atol=1e-9)
     finally:
         first.close()
         second.close()
