@@ -62,7 +62,9 @@ def main() -> int:
         median = statistics.median(times)
         results[label] = {"median_s": round(median, 4), "min_s": round(min(times), 4), "max_s": round(max(times), 4)}
         verdict = "ok" if median < GOAL_S else f"over the {GOAL_S:.0f} s goal"
-        print(f"{label:<18} median {median:.3f} s  (min {min(times):.3f}, max {max(times):.3f}, {len(times)} runs)  {verdict}")
+        print(
+            f"{label:<18} median {median:.3f} s  (min {min(times):.3f}, max {max(times):.3f}, {len(times)} runs)  {verdict}"
+        )
     if arguments.json_out:
         write_json_atomically(
             arguments.json_out,

@@ -100,7 +100,9 @@ def _describe(error: BaseException) -> str:
 
 
 def _module_name(plugin: object) -> str:
-    return plugin.__name__ if isinstance(plugin, ModuleType) else f"{type(plugin).__module__}.{type(plugin).__qualname__}"
+    return (
+        plugin.__name__ if isinstance(plugin, ModuleType) else f"{type(plugin).__module__}.{type(plugin).__qualname__}"
+    )
 
 
 class Registry:
@@ -120,9 +122,7 @@ class Registry:
     # ---------------------------------------------------------------------------------------------
 
     @classmethod
-    def from_entry_points(
-        cls, *, autoload: bool | None = None, extra_modules: Iterable[str] | None = None
-    ) -> Registry:
+    def from_entry_points(cls, *, autoload: bool | None = None, extra_modules: Iterable[str] | None = None) -> Registry:
         """A registry loaded from entry points in group ``t2m`` and from ``extra_modules``.
 
         Args:
@@ -154,7 +154,7 @@ class Registry:
             )
             try:
                 plugin = entry_point.load()
-            except Exception as error:  # a broken install must not take the CLI down
+            except Exception as error:  # noqa: BLE001 - a broken install must not take the CLI down
                 self._record(record, error=error)
                 continue
             self._add(plugin, record)
@@ -165,7 +165,7 @@ class Registry:
         record = PluginRecord(name=module_name, module=module_name, provider=provider, version=version)
         try:
             plugin = importlib.import_module(module_name)
-        except Exception as error:
+        except Exception as error:  # noqa: BLE001 - recorded as a failed plugin, like a broken entry point
             return self._record(record, error=error)
         if self.plugin_manager.is_registered(plugin):  # already loaded through its entry point
             return self._records[self.plugin_manager.get_name(plugin)]
@@ -185,7 +185,9 @@ class Registry:
                 f"a plugin named {name!r} is already registered (from {self._records[name].provider})",
                 hint="give the new plugin another name, or unregister the old one first",
             )
-        return self._add(plugin, PluginRecord(name=name, module=_module_name(plugin), provider=provider, version=version))
+        return self._add(
+            plugin, PluginRecord(name=name, module=_module_name(plugin), provider=provider, version=version)
+        )
 
     def unregister_plugin(self, name: str) -> None:
         """Remove a plugin (and its components) registered under ``name``; unknown names are ignored."""
@@ -197,7 +199,7 @@ class Registry:
     def _add(self, plugin: object, record: PluginRecord) -> PluginRecord:
         try:
             self.plugin_manager.register(plugin, name=record.name)
-        except Exception as error:  # pluggy validates hook names and signatures
+        except Exception as error:  # noqa: BLE001 - pluggy rejects bad hook names and signatures
             return self._record(record, error=error)
         return self._record(record)
 
@@ -258,7 +260,9 @@ class Registry:
         valid = ", ".join(choices) if choices else "none are installed"
         failed = self.failed_plugins()
         note = f" ({len(failed)} plugin(s) failed to load: run `t2m list-plugins`)" if failed else ""
-        raise PluginError(f"unknown {kind.replace('_', ' ')} {name!r}", hint=f"{suggestion}valid choices: {valid}{note}")
+        raise PluginError(
+            f"unknown {kind.replace('_', ' ')} {name!r}", hint=f"{suggestion}valid choices: {valid}{note}"
+        )
 
     def get(self, kind: str, name: str) -> ComponentSpec:
         """The spec of ``name`` (or one of its aliases) in ``kind``; see :meth:`entry`."""
@@ -276,7 +280,9 @@ class Registry:
         try:
             return spec.options.model_validate(dict(options or {}))
         except ValidationError as error:
-            problems = "; ".join(f"{'.'.join(map(str, issue['loc'])) or '(options)'}: {issue['msg']}" for issue in error.errors())
+            problems = "; ".join(
+                f"{'.'.join(map(str, issue['loc'])) or '(options)'}: {issue['msg']}" for issue in error.errors()
+            )
             raise ConfigError(
                 f"invalid options for {kind.replace('_', ' ')} {name!r}: {problems}",
                 hint=f"valid options: {', '.join(spec.options.model_fields) or 'none'}",
@@ -316,7 +322,7 @@ class Registry:
                     continue
                 try:
                     specs = _checked_specs(kind, hook_name, implementation.function())
-                except Exception as error:  # a buggy plugin is listed as failed, the rest keep working
+                except Exception as error:  # noqa: BLE001 - a buggy plugin is listed as failed, the rest keep working
                     self._records[record.name] = PluginRecord(**{**record.__dict__, "error": _describe(error)})
                     continue
                 for spec in specs:

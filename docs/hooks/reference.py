@@ -113,7 +113,9 @@ def config_keys() -> str:
             default = json.dumps(node["default"]) if "default" in node else ""
             description = node.get("description", "")
             target = resolve(node)
-            rows.append(f"| `{path}` | {type_of(node)} | {default and f'`{default}`'} | {description or (target or {}).get('description', '')} |")
+            rows.append(
+                f"| `{path}` | {type_of(node)} | {default and f'`{default}`'} | {description or (target or {}).get('description', '')} |"
+            )
             if target is not None and "properties" in target:
                 walk(target["properties"], f"{path}.")
 
@@ -156,7 +158,9 @@ def plugins_reference() -> str:
     rows = ["| Kind | Name | Aliases | Provider | Summary |", "|---|---|---|---|---|"]
     for entry in entries:
         aliases = ", ".join(f"`{alias}`" for alias in entry.spec.aliases)
-        rows.append(f"| {entry.kind} | `{entry.spec.name}` | {aliases} | {entry.plugin.provider} | {entry.spec.summary} |")
+        rows.append(
+            f"| {entry.kind} | `{entry.spec.name}` | {aliases} | {entry.plugin.provider} | {entry.spec.summary} |"
+        )
     sections = ["\n".join(rows), ""]
     for entry in entries:
         sections += [f"### {entry.kind.replace('_', ' ')} `{entry.spec.name}`", "", entry.spec.summary, ""]
@@ -172,7 +176,12 @@ def _options_table(schema: dict[str, Any]) -> str:
     rows = ["| Option | Type | Default | Meaning |", "|---|---|---|---|"]
     for name, node in properties.items():
         options = node.get("anyOf", [node])
-        kinds = [" or ".join(f"`{json.dumps(value)}`" for value in option["enum"]) if "enum" in option else option.get("type", "any") for option in options]
+        kinds = [
+            " or ".join(f"`{json.dumps(value)}`" for value in option["enum"])
+            if "enum" in option
+            else option.get("type", "any")
+            for option in options
+        ]
         kind = " or ".join(kinds).replace("|", "\\|")
         default = f"`{json.dumps(node['default'])}`" if "default" in node else "required"
         description = node.get("description", "").replace("|", "\\|").replace("\n", " ")

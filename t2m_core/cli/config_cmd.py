@@ -30,7 +30,9 @@ Overrides = Annotated[
 AsJson = Annotated[bool, typer.Option("--json", help="Print JSON on stdout.")]
 
 
-def _sources(planner: str | None, sim: str | None, llm: str | None, task: str | None, seed: int | None) -> dict[str, Any]:
+def _sources(
+    planner: str | None, sim: str | None, llm: str | None, task: str | None, seed: int | None
+) -> dict[str, Any]:
     return {"planner": planner, "sim": sim, "llm": llm, "task": task, "seed": seed}
 
 

@@ -85,7 +85,9 @@ def _print_table(rows: list[dict[str, Any]]) -> None:
     console = Console()
     console.print(table)
     for row in failures:
-        console.print(Text.assemble((f"{row['name']}", "bold red"), f" ({row['provider']}): {row['status']}"), soft_wrap=True)
+        console.print(
+            Text.assemble((f"{row['name']}", "bold red"), f" ({row['provider']}): {row['status']}"), soft_wrap=True
+        )
 
 
 def register(app: typer.Typer) -> None:

@@ -31,7 +31,18 @@ _LAZY: dict[str, str] = {
     "FakeDistribution": "t2m_core.testing.distributions",
 }
 
-__all__ = sorted(_LAZY)
+__all__ = [
+    "HEAVY_MODULES",
+    "FakeDistribution",
+    "check_import_light",
+    "check_language_model",
+    "check_plugin_module",
+    "check_plugin_spec",
+    "check_scene_parser",
+    "check_simulator",
+    "sample_observation",
+    "write_fake_distribution",
+]
 
 
 def __getattr__(name: str) -> Any:

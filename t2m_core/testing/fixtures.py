@@ -48,7 +48,9 @@ def t2m_plugin() -> Iterator[Callable[..., PluginRecord]]:
 
     registered: list[tuple[Registry, str]] = []
 
-    def register(plugin: object, *, name: str | None = None, provider: str = "tests", version: str = "") -> PluginRecord:
+    def register(
+        plugin: object, *, name: str | None = None, provider: str = "tests", version: str = ""
+    ) -> PluginRecord:
         registry = get_registry()
         record = registry.register_plugin(plugin, name=name, provider=provider, version=version)
         registered.append((registry, record.name))
@@ -62,9 +64,7 @@ def t2m_plugin() -> Iterator[Callable[..., PluginRecord]]:
 
 
 @pytest.fixture
-def t2m_fake_distribution(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> Iterator[Callable[..., FakeDistribution]]:
+def t2m_fake_distribution(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Callable[..., FakeDistribution]]:
     """Write fake installed distributions that entry-point discovery finds; removed at teardown."""
     from t2m_core.registry import reset_registry
     from t2m_core.testing.distributions import write_fake_distribution

@@ -50,7 +50,9 @@ def check_scene_parser(
             f"objects {state.object_names} differ from the requested {tuple(observation.object_names)}"
         )
     for name, pose in state.objects.items():
-        assert pose.position.shape == (3,) and np.all(np.isfinite(pose.position)), f"{name}: bad position {pose.position}"
+        assert pose.position.shape == (3,) and np.all(np.isfinite(pose.position)), (
+            f"{name}: bad position {pose.position}"
+        )
         assert pose.quaternion.shape == (4,), f"{name}: quaternion must be (4,), got {pose.quaternion.shape}"
         norm = float(np.linalg.norm(pose.quaternion))
         assert abs(norm - 1.0) < QUATERNION_NORM_TOLERANCE, f"{name}: quaternion norm {norm:.6f} is not 1"

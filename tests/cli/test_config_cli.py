@@ -34,7 +34,9 @@ def test_show_resolves_files_flags_and_overrides(tmp_path: Path) -> None:
     assert (shown["task"], shown["seed"]) == ("task2", 5)
     assert shown["simulator"] == {"name": "toysim", "options": {"timestep": 0.002, "substeps": 2}}
     assert shown["skills"] is None
-    as_json = runner.invoke(app, ["config", "show", "--config", str(config), *TOY_SELECTION, "--seed", "4", "--set", "seed=5", "--json"])
+    as_json = runner.invoke(
+        app, ["config", "show", "--config", str(config), *TOY_SELECTION, "--seed", "4", "--set", "seed=5", "--json"]
+    )
     assert json.loads(as_json.stdout) == shown
 
 

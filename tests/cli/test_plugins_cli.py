@@ -43,7 +43,9 @@ def test_json_rows_describe_every_component(t2m_registry, t2m_plugin) -> None:
 
 
 def test_broken_plugin_is_listed_as_failed_with_exit_status_0(t2m_fake_distribution) -> None:
-    t2m_fake_distribution("broken-t2m", version="0.1", entry_points={"broken": "broken_t2m"}, files={"broken_t2m.py": "1 / 0\n"})
+    t2m_fake_distribution(
+        "broken-t2m", version="0.1", entry_points={"broken": "broken_t2m"}, files={"broken_t2m.py": "1 / 0\n"}
+    )
     result = runner.invoke(app, ["list-plugins", "--json"])
     assert result.exit_code == 0, result.output
     broken = [row for row in json.loads(result.stdout) if row["name"] == "broken"]
@@ -86,10 +88,19 @@ def test_installed_console_script_lists_the_builtins_without_heavy_imports() -> 
         f"print(json.dumps([m for m in {list(HEAVY_MODULES)!r} if m in sys.modules]), file=sys.stderr)\n"
     )
     for arguments in (["--help"], ["list-plugins", "--json"]):
-        result = subprocess.run([sys.executable, "-c", probe, *arguments], capture_output=True, text=True, timeout=120)
+        result = subprocess.run(
+            [sys.executable, "-c", probe, *arguments], capture_output=True, text=True, timeout=120, check=False
+        )
         assert result.returncode == 0, result.stderr
-        assert json.loads(result.stderr.strip().splitlines()[-1]) == [], f"t2m {' '.join(arguments)} imported heavy modules"
+        assert json.loads(result.stderr.strip().splitlines()[-1]) == [], (
+            f"t2m {' '.join(arguments)} imported heavy modules"
+        )
     rows = json.loads(result.stdout)
     assert all(ROW_KEYS <= set(row) for row in rows)
     truth = next(row for row in rows if row["name"] == "ground-truth")
-    assert (truth["kind"], truth["provider"], truth["status"], truth["aliases"]) == ("scene_parser", "text2motion", "ok", ["truth"])
+    assert (truth["kind"], truth["provider"], truth["status"], truth["aliases"]) == (
+        "scene_parser",
+        "text2motion",
+        "ok",
+        ["truth"],
+    )

@@ -63,7 +63,9 @@ def test_unknown_kind_is_rejected(t2m_registry: Registry) -> None:
 
 
 def test_duplicate_name_names_both_providers(t2m_registry: Registry) -> None:
-    t2m_registry.register_plugin(plugin(t2m_register_simulators=[toy_simulator_spec()]), name="a", provider="acme-sim", version="1.2")
+    t2m_registry.register_plugin(
+        plugin(t2m_register_simulators=[toy_simulator_spec()]), name="a", provider="acme-sim", version="1.2"
+    )
     t2m_registry.register_plugin(plugin(t2m_register_simulators=[toy_simulator_spec()]), name="b", provider="other-sim")
     with pytest.raises(PluginError) as raised:
         t2m_registry.components()
@@ -74,7 +76,9 @@ def test_duplicate_name_names_both_providers(t2m_registry: Registry) -> None:
 
 def test_alias_clashing_with_another_name_is_a_duplicate(t2m_registry: Registry) -> None:
     t2m_registry.register_plugin(plugin(t2m_register_simulators=[toy_simulator_spec("mujoco")]), name="a")
-    t2m_registry.register_plugin(plugin(t2m_register_simulators=[toy_simulator_spec("fast", aliases=("mujoco",))]), name="b")
+    t2m_registry.register_plugin(
+        plugin(t2m_register_simulators=[toy_simulator_spec("fast", aliases=("mujoco",))]), name="b"
+    )
     with pytest.raises(PluginError, match="'mujoco' is provided twice"):
         t2m_registry.get("simulator", "fast")
 
@@ -117,7 +121,9 @@ def test_wrong_return_type_marks_the_plugin_failed(t2m_registry: Registry) -> No
 def test_factory_that_cannot_be_imported_is_a_plugin_error(t2m_registry: Registry) -> None:
     spec = SimulatorSpec(name="ghost", factory="t2m_no_such_module.sim:Sim", summary="x")
     t2m_registry.register_plugin(plugin(t2m_register_simulators=[spec]), name="ghost", provider="ghost-dist")
-    with pytest.raises(PluginError, match=r"cannot load the factory of simulator 'ghost'.*ModuleNotFoundError") as raised:
+    with pytest.raises(
+        PluginError, match=r"cannot load the factory of simulator 'ghost'.*ModuleNotFoundError"
+    ) as raised:
         t2m_registry.create("simulator", "ghost")
     assert raised.value.hint == "reinstall ghost-dist with its dependencies"
 
@@ -150,7 +156,9 @@ def test_discovery_from_an_installed_distribution(t2m_fake_distribution) -> None
 def test_broken_distribution_is_listed_as_failed_and_others_still_work(t2m_fake_distribution) -> None:
     t2m_fake_distribution("broken-t2m", entry_points={"broken": "broken_t2m"}, files={"broken_t2m.py": BROKEN_HOOKS})
     t2m_fake_distribution(
-        "acme-t2m", entry_points={"acme": "acme_t2m.hooks"}, files={"acme_t2m/__init__.py": "", "acme_t2m/hooks.py": GOOD_HOOKS}
+        "acme-t2m",
+        entry_points={"acme": "acme_t2m.hooks"},
+        files={"acme_t2m/__init__.py": "", "acme_t2m/hooks.py": GOOD_HOOKS},
     )
     registry = get_registry()
     broken = next(record for record in registry.plugins if record.name == "broken")
@@ -162,7 +170,9 @@ def test_broken_distribution_is_listed_as_failed_and_others_still_work(t2m_fake_
 
 def test_autoload_switch_keeps_builtins_and_skips_third_party(t2m_fake_distribution, monkeypatch) -> None:
     t2m_fake_distribution(
-        "acme-t2m", entry_points={"acme": "acme_t2m.hooks"}, files={"acme_t2m/__init__.py": "", "acme_t2m/hooks.py": GOOD_HOOKS}
+        "acme-t2m",
+        entry_points={"acme": "acme_t2m.hooks"},
+        files={"acme_t2m/__init__.py": "", "acme_t2m/hooks.py": GOOD_HOOKS},
     )
     monkeypatch.setenv("T2M_DISABLE_PLUGIN_AUTOLOAD", "1")
     registry = Registry.from_entry_points()
@@ -174,7 +184,9 @@ def test_autoload_switch_keeps_builtins_and_skips_third_party(t2m_fake_distribut
 
 def test_t2m_plugins_loads_modules_by_name(t2m_fake_distribution, monkeypatch) -> None:
     # installed without an entry point: only T2M_PLUGINS can bring it in
-    t2m_fake_distribution("acme-t2m", version="0.3", files={"acme_t2m/__init__.py": "", "acme_t2m/hooks.py": GOOD_HOOKS})
+    t2m_fake_distribution(
+        "acme-t2m", version="0.3", files={"acme_t2m/__init__.py": "", "acme_t2m/hooks.py": GOOD_HOOKS}
+    )
     monkeypatch.setenv("T2M_DISABLE_PLUGIN_AUTOLOAD", "1")
     monkeypatch.setenv("T2M_PLUGINS", "acme_t2m.hooks, t2m_missing_plugin")
     registry = Registry.from_entry_points()
@@ -189,7 +201,9 @@ def test_same_entry_point_name_from_two_distributions_is_a_duplicate_not_a_failu
     for distribution in ("acme-t2m", "other-t2m"):
         package = distribution.replace("-", "_")
         t2m_fake_distribution(
-            distribution, entry_points={"camera": f"{package}.hooks"}, files={f"{package}/__init__.py": "", f"{package}/hooks.py": GOOD_HOOKS}
+            distribution,
+            entry_points={"camera": f"{package}.hooks"},
+            files={f"{package}/__init__.py": "", f"{package}/hooks.py": GOOD_HOOKS},
         )
     registry = get_registry()
     with pytest.raises(PluginError) as raised:

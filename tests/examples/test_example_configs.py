@@ -20,7 +20,9 @@ def test_there_are_example_configs() -> None:
 
 def test_default_yaml_is_exactly_the_defaults() -> None:
     assert resolve_config([CONFIGS / "default.yaml"]) == RunConfig()
-    assert resolve_config([CONFIGS / "default.yaml"], registry=get_registry()) == resolve_config(registry=get_registry())
+    assert resolve_config([CONFIGS / "default.yaml"], registry=get_registry()) == resolve_config(
+        registry=get_registry()
+    )
 
 
 def test_hosted_llm_selects_litellm_with_the_alias_model() -> None:
@@ -35,4 +37,7 @@ def test_measured_scene_validates_once_the_example_plugin_is_installed(t2m_fake_
         resolve_config([CONFIGS / "measured-scene.yaml"], registry=builtins_only)
     install_example(t2m_fake_distribution, monkeypatch)
     config = resolve_config([CONFIGS / "measured-scene.yaml"], registry=get_registry())
-    assert config.scene_parser.options == {"path": "examples/t2m-scene-file/scenes/example.yaml", "size_tolerance": 0.01}
+    assert config.scene_parser.options == {
+        "path": "examples/t2m-scene-file/scenes/example.yaml",
+        "size_tolerance": 0.01,
+    }

@@ -20,20 +20,36 @@ def test_scene_file_plugin_is_discovered_and_listed(t2m_fake_distribution, monke
     assert result.exit_code == 0, result.output
     row = next(row for row in json.loads(result.stdout) if row["name"] == "scene-file")
     assert row["kind"] == "scene_parser"
-    assert (row["provider"], row["version"], row["status"], row["aliases"]) == ("t2m-scene-file", "0.1.0", "ok", ["measured"])
+    assert (row["provider"], row["version"], row["status"], row["aliases"]) == (
+        "t2m-scene-file",
+        "0.1.0",
+        "ok",
+        ["measured"],
+    )
 
 
 def test_scene_file_parser_is_built_by_the_registry(t2m_fake_distribution, monkeypatch) -> None:
     install_example(t2m_fake_distribution, monkeypatch)
     parser = get_registry().create("scene_parser", "measured", {"path": str(EXAMPLE / "scenes" / "example.yaml")})
-    state = check_scene_parser(parser, SceneObservation(object_names=("table", "rack", "blue_box", "yellow_box", "cyan_box")))
+    state = check_scene_parser(
+        parser, SceneObservation(object_names=("table", "rack", "blue_box", "yellow_box", "cyan_box"))
+    )
     np.testing.assert_allclose(state.objects["rack"].position, [0.44, -0.33, 0.16])
 
 
 def test_scene_file_options_are_checked_by_config_validate(t2m_fake_distribution, monkeypatch) -> None:
     install_example(t2m_fake_distribution, monkeypatch)
     result = CliRunner().invoke(
-        app, ["config", "validate", "--set", "scene_parser.name=scene-file", "--set", "scene_parser.options.size_tolerance=-1", "--json"]
+        app,
+        [
+            "config",
+            "validate",
+            "--set",
+            "scene_parser.name=scene-file",
+            "--set",
+            "scene_parser.options.size_tolerance=-1",
+            "--json",
+        ],
     )
     errors = {error["path"]: error["message"] for error in json.loads(result.stdout)["errors"]}
     assert errors["scene_parser.options.path"] == "required key is missing"

@@ -32,7 +32,9 @@ def read_scene(path: Path) -> MeasuredScene:
     try:
         data = yaml.safe_load(Path(path).read_text(encoding="utf-8"))
     except OSError as error:
-        raise SceneFileError(f"cannot read scene file {path}: {error.strerror}", hint="check scene_parser.options.path") from None
+        raise SceneFileError(
+            f"cannot read scene file {path}: {error.strerror}", hint="check scene_parser.options.path"
+        ) from None
     except yaml.YAMLError as error:
         raise SceneFileError(f"scene file {path} is not valid YAML/JSON: {error}", hint="fix the syntax") from None
     try:
@@ -41,7 +43,9 @@ def read_scene(path: Path) -> MeasuredScene:
         problems = "; ".join(
             f"{'.'.join(str(part) for part in issue['loc']) or '(file)'}: {issue['msg']}" for issue in error.errors()
         )
-        raise SceneFileError(f"scene file {path} is invalid: {problems}", hint="see scenes/example.yaml of t2m-scene-file") from None
+        raise SceneFileError(
+            f"scene file {path} is invalid: {problems}", hint="see scenes/example.yaml of t2m-scene-file"
+        ) from None
 
 
 def object_pose(measured: MeasuredObject, scene: MeasuredScene, size_tolerance: float) -> ObjectPose:

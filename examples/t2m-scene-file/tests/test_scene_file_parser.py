@@ -7,13 +7,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from t2m_scene_file import hooks
+from t2m_scene_file.hooks import SceneFileOptions
+from t2m_scene_file.parser import SceneFileError, SceneFileParser
 
 from t2m_core.domain.geometry import quat_yaw
 from t2m_core.protocols import SceneObservation
 from t2m_core.testing import check_plugin_module, check_scene_parser
-from t2m_scene_file import hooks
-from t2m_scene_file.hooks import SceneFileOptions
-from t2m_scene_file.parser import SceneFileError, SceneFileParser
 
 EXAMPLE = Path(__file__).parents[1] / "scenes" / "example.yaml"
 TASK0_OBJECTS = ("table", "rack", "blue_box", "yellow_box", "cyan_box")
@@ -63,12 +63,16 @@ def test_metres_radians_quaternion_and_end_effector(tmp_path: Path) -> None:
 
 
 def test_measured_size_within_tolerance_places_the_box_on_the_table(tmp_path: Path) -> None:
-    parser = parser_for(tmp_path, {"objects": [{"name": "red_box", "position": [0.5, 0.0], "size": [0.05, 0.05, 0.12]}]})
+    parser = parser_for(
+        tmp_path, {"objects": [{"name": "red_box", "position": [0.5, 0.0], "size": [0.05, 0.05, 0.12]}]}
+    )
     assert parser.poses["red_box"].position[2] == pytest.approx(0.06)
 
 
 def test_size_far_from_the_object_is_rejected(tmp_path: Path) -> None:
-    with pytest.raises(SceneFileError, match=r"red_box: measured size \[0.05, 0.05, 0.2\] m differs .* by 0.082 m") as raised:
+    with pytest.raises(
+        SceneFileError, match=r"red_box: measured size \[0.05, 0.05, 0.2\] m differs .* by 0.082 m"
+    ) as raised:
         parser_for(tmp_path, {"objects": [{"name": "red_box", "position": [0.5, 0.0], "size": [0.05, 0.05, 0.2]}]})
     assert "size_tolerance" in (raised.value.hint or "")
 
@@ -84,11 +88,23 @@ def test_tilted_object_needs_its_height(tmp_path: Path) -> None:
     [
         ({"objects": [{"name": "red_bx", "position": [0.5, 0]}]}, "unknown object 'red_bx'"),
         ({"objects": [{"name": "table", "position": [0, 0]}]}, "the table is the frame's origin"),
-        ({"objects": [{"name": "red_box", "position": [0.5]}]}, "objects.0.position: List should have at least 2 items"),
-        ({"objects": [{"name": "red_box", "position": [0.5, 0], "yaw": 1, "quaternion": [0, 0, 0, 1]}]}, "give yaw or quaternion, not both"),
-        ({"objects": [{"name": "red_box", "position": [0.5, 0], "colour": "red"}]}, "objects.0.colour: Extra inputs are not permitted"),
+        (
+            {"objects": [{"name": "red_box", "position": [0.5]}]},
+            "objects.0.position: List should have at least 2 items",
+        ),
+        (
+            {"objects": [{"name": "red_box", "position": [0.5, 0], "yaw": 1, "quaternion": [0, 0, 0, 1]}]},
+            "give yaw or quaternion, not both",
+        ),
+        (
+            {"objects": [{"name": "red_box", "position": [0.5, 0], "colour": "red"}]},
+            "objects.0.colour: Extra inputs are not permitted",
+        ),
         ({"objects": [{"name": "red_box", "position": [0.5, 0]}] * 2}, "objects listed more than once: red_box"),
-        ({"objects": [{"name": "red_box", "position": [0.5, 0]}], "units": {"length": "inch"}}, "units.length: Input should be 'm', 'cm' or 'mm'"),
+        (
+            {"objects": [{"name": "red_box", "position": [0.5, 0]}], "units": {"length": "inch"}},
+            "units.length: Input should be 'm', 'cm' or 'mm'",
+        ),
     ],
 )
 def test_bad_scene_files_are_explained(tmp_path: Path, scene: dict, message: str) -> None:

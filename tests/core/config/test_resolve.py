@@ -22,7 +22,11 @@ def test_defaults_select_the_builtin_components() -> None:
     config = resolve_config()
     assert config == RunConfig()
     assert (config.task, config.seed) == ("task0", 0)
-    assert (config.simulator.name, config.language_model.name, config.scene_parser.name) == ("mujoco", "local", "ground-truth")
+    assert (config.simulator.name, config.language_model.name, config.scene_parser.name) == (
+        "mujoco",
+        "local",
+        "ground-truth",
+    )
     assert config.skills is None and config.feasibility_planner is None and config.task_planner is None
     assert config.run.closed_loop is True and config.output.video_fps == 30
 
@@ -99,7 +103,10 @@ def test_unknown_keys_are_rejected_with_path_and_source(tmp_path: Path) -> None:
     assert by_path["output.fps"].source == "--set"
     with pytest.raises(ConfigError) as raised:
         resolve_config([path])
-    assert f"simulator.optons: unknown key; did you mean 'options'? (valid keys: name, options) (from {path})" in raised.value.message
+    assert (
+        f"simulator.optons: unknown key; did you mean 'options'? (valid keys: name, options) (from {path})"
+        in raised.value.message
+    )
     assert "2 problems" in raised.value.message
 
 
@@ -191,7 +198,11 @@ def test_language_model_alias_implies_its_options() -> None:
         factory="builtins:object",
         options=HostedOptions,
         summary="x",
-        extra={"alias_options": {"small": {"model": "small-2"}}, "name_prefixes": {"acme/": "keep"}, "name_prefix_option": "model"},
+        extra={
+            "alias_options": {"small": {"model": "small-2"}},
+            "name_prefixes": {"acme/": "keep"},
+            "name_prefix_option": "model",
+        },
     )
     registry = Registry()
     registry.register_plugin(plugin(t2m_register_language_models=[hosted]), name="hosted")

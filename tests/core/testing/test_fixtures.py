@@ -6,7 +6,7 @@ import pytest
 
 pytest_plugins = ["pytester"]
 
-INNER_TESTS = '''
+INNER_TESTS = """
 import sys
 from types import SimpleNamespace
 
@@ -40,7 +40,7 @@ def test_3_everything_was_cleaned_up():
     assert "gone" not in [record.name for record in registry.plugins]
     assert "gone_t2m" not in sys.modules
     assert not any("site-packages" in path and "pytest-of" in path for path in sys.path)
-'''
+"""
 
 
 def test_fixtures_clean_up_after_failing_tests(pytester: pytest.Pytester) -> None:

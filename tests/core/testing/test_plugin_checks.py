@@ -26,11 +26,23 @@ def test_a_good_spec_passes() -> None:
 @pytest.mark.parametrize(
     ("spec", "problem"),
     [
-        (SimulatorSpec(name="MySim", factory=dict, options=ToySimOptions, summary="x"), "invalid name or alias 'MySim'"),
-        (SimulatorSpec(name="sim", aliases=("sim",), factory=dict, options=ToySimOptions, summary="x"), "an alias repeats the name"),
-        (SimulatorSpec(name="sim", factory=dict, options=ToySimOptions, summary=""), "summary must be one non-empty line"),
+        (
+            SimulatorSpec(name="MySim", factory=dict, options=ToySimOptions, summary="x"),
+            "invalid name or alias 'MySim'",
+        ),
+        (
+            SimulatorSpec(name="sim", aliases=("sim",), factory=dict, options=ToySimOptions, summary="x"),
+            "an alias repeats the name",
+        ),
+        (
+            SimulatorSpec(name="sim", factory=dict, options=ToySimOptions, summary=""),
+            "summary must be one non-empty line",
+        ),
         (SimulatorSpec(name="sim", factory=dict, options=LaxOptions, summary="x"), "must reject unknown keys"),
-        (SimulatorSpec(name="sim", factory="my_package.sim", options=ToySimOptions, summary="x"), "must look like 'module:attribute'"),
+        (
+            SimulatorSpec(name="sim", factory="my_package.sim", options=ToySimOptions, summary="x"),
+            "must look like 'module:attribute'",
+        ),
     ],
 )
 def test_bad_specs_are_named(spec: SimulatorSpec, problem: str) -> None:
@@ -49,7 +61,7 @@ def test_plugin_module_without_components_or_with_an_unmarked_hook_fails() -> No
     with pytest.raises(AssertionError, match="registers no component"):
         check_plugin_module(SimpleNamespace(__name__="empty"))  # type: ignore[arg-type]
     unmarked = SimpleNamespace(
-        __name__="unmarked", t2m_core=__import__("t2m_core"), t2m_register_simulator=hookimpl(lambda: [])
+        __name__="unmarked", t2m_core=__import__("t2m_core"), t2m_register_simulator=hookimpl(list)
     )  # an imported t2m_* module is fine; a misspelt hook is not
     with pytest.raises(AssertionError, match="not t2m hooks: t2m_register_simulator"):
         check_plugin_module(unmarked)  # type: ignore[arg-type]

@@ -5,12 +5,12 @@ from __future__ import annotations
 from dataclasses import replace
 
 import pytest
+from t2m_scene_truth import hooks
+from t2m_scene_truth.parser import GroundTruthSceneParser
 
 from t2m_core.errors import T2MError
 from t2m_core.registry import Registry
 from t2m_core.testing import check_scene_parser, sample_observation
-from t2m_scene_truth import hooks
-from t2m_scene_truth.parser import GroundTruthSceneParser
 
 
 @pytest.fixture
