@@ -150,8 +150,12 @@ class LocalLanguageModel:
                 texts.append(result["choices"][0]["text"])
         return texts * n if samples == 1 else texts
 
+    def count_tokens(self, text: str) -> int:
+        """Number of tokens of ``text`` (for budgets and throughput figures)."""
+        return len(self._llama.tokenize(text.encode("utf-8"), add_bos=False, special=False))
+
     def _check_length(self, prompt: str, max_tokens: int) -> None:
-        tokens = len(self._llama.tokenize(prompt.encode("utf-8"), add_bos=False, special=False))
+        tokens = self.count_tokens(prompt)
         if tokens + max_tokens > self.options.n_ctx:
             raise ModelFileError(
                 f"prompt of {tokens} tokens + {max_tokens} new tokens exceeds the context of {self.options.n_ctx}",

@@ -1,0 +1,26 @@
+"""GBNF grammars built from the scene."""
+
+from __future__ import annotations
+
+from t2m_core.language.grammar import goal_grammar, skill_list_grammar, skill_sequences_grammar
+
+OBJECTS = ("table", "rack", "hook", "red_box")
+
+
+def test_goal_grammar_names_only_scene_objects_and_goal_predicates():
+    text = goal_grammar(OBJECTS)
+    assert 'obj ::= ("table" | "rack" | "hook" | "red_box")' in text
+    assert '("on" | "under")' in text and '"inhand("' in text
+    assert "{0,7}" in text  # at most 8 alternatives
+
+
+def test_typed_skill_grammar_restricts_argument_kinds():
+    typed = skill_list_grammar(OBJECTS, 5, typed=True)
+    assert 'pick-arg0 ::= ("hook" | "red_box")' in typed
+    assert 'push-arg2 ::= ("rack")' in typed
+    untyped = skill_list_grammar(OBJECTS, 5)
+    assert 'pick-arg0 ::= ("table" | "rack" | "hook" | "red_box")' in untyped
+    assert '"stop()"' in skill_list_grammar(OBJECTS, 5, allow_stop=True)
+    # a scene without a hook cannot ground pull or push when typed
+    no_hook = skill_list_grammar(("table", "rack", "red_box"), 5, typed=True)
+    assert '"pull("' not in no_hook and '"push("' not in no_hook

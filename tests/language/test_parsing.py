@@ -1,0 +1,114 @@
+"""Parsing and validating model answers, and the bounded re-query (text2motion.md §4, §9.2, §10.9)."""
+
+from __future__ import annotations
+
+import pytest
+
+from t2m_core.domain.goals import GoalError
+from t2m_core.domain.skills import SkillCall, SkillError
+from t2m_core.language.parsing import (
+    parse_goal_answer,
+    parse_skill_candidates,
+    parse_skill_sequences,
+    query_goal,
+    query_next_skills,
+    query_skill_sequences,
+    with_error_note,
+)
+from t2m_core.protocols import LanguageModelCapabilities
+
+OBJECTS = ("table", "rack", "hook", "red_box", "blue_box")
+
+
+class ScriptedModel:
+    """Test double answering with a fixed script, recording prompts and grammars."""
+
+    def __init__(self, answers, grammar=False):
+        self.answers = list(answers)
+        self.prompts = []
+        self.grammars = []
+        self.capabilities = LanguageModelCapabilities(exact_scoring=True, grammar=grammar)
+
+    def complete(self, prompt, *, max_tokens=256, stop=(), temperature=0.0, n=1, grammar=None):
+        self.prompts.append(prompt)
+        self.grammars.append(grammar)
+        return [self.answers.pop(0)] * n
+
+    def score(self, prompt, candidates):
+        return [0.0] * len(candidates)
+
+
+def test_goal_answer_in_prose_with_loose_spacing():
+    goal = parse_goal_answer("Sure! ```[['on(red_box,rack)'], [\"on(blue_box, rack)\"]]``` done", OBJECTS)
+    assert goal.to_lists() == [["on(red_box, rack)"], ["on(blue_box, rack)"]]
+
+
+@pytest.mark.parametrize(
+    "answer, problem",
+    [
+        ("[['on(green_box, rack)']]", "green_box"),
+        ("[['near(red_box, rack)']]", "near"),
+        ("[['on(red_box, red_box)']]", "itself"),
+        ("['on(red_box, rack)']", "not a list"),
+        ("no list here", "no list"),
+    ],
+)
+def test_invalid_goal_answers_name_the_problem(answer, problem):
+    with pytest.raises(GoalError, match=problem):
+        parse_goal_answer(answer, OBJECTS)
+
+
+def test_candidates_drop_invalid_entries_dedupe_and_cap_at_k():
+    answer = "['pick(hook)', 'pick(hook)', 'pick(red_box, table)', 'fly(hook)', 'pick(green_box)', " \
+             "'place(hook, table)', 'pull(red_box, hook)', 'pull(blue_box, hook)', 'pick(table)', 'pick(rack)']"
+    result = parse_skill_candidates(answer, OBJECTS, k=5)
+    assert [str(call) for call in result.calls] == [
+        "pick(hook)", "place(hook, table)", "pull(red_box, hook)", "pull(blue_box, hook)", "pick(table)"
+    ]
+    reasons = " | ".join(rejected.reason for rejected in result.rejected)
+    assert "takes 1 argument" in reasons and "unknown skill 'fly'" in reasons and "green_box" in reasons
+    assert "more than K = 5" in reasons
+    typed = parse_skill_candidates("['pick(table)', 'pick(hook)']", OBJECTS, check_types=True)
+    assert typed.calls == [SkillCall("pick", ("hook",))]
+    with pytest.raises(SkillError, match="cannot read a list"):
+        parse_skill_candidates("pick(hook)", OBJECTS)
+
+
+def test_sequences_drop_any_sequence_with_an_invalid_entry():
+    answer = "[['pick(hook)', 'pull(red_box, hook)'], ['pick(hook)', 'fly(hook)'], [], ['pick(red_box)']]"
+    sequences, rejected = parse_skill_sequences(answer, OBJECTS)
+    assert [[str(c) for c in sequence] for sequence in sequences] == [["pick(hook)", "pull(red_box, hook)"], ["pick(red_box)"]]
+    assert len(rejected) == 2
+    flat, _ = parse_skill_sequences("['pick(red_box)', 'place(red_box, rack)']", OBJECTS)
+    assert len(flat) == 1 and len(flat[0]) == 2
+
+
+def test_error_note_goes_before_the_query_line():
+    prompt = "context\nPredicted goal predicate set (python list of lists):"
+    noted = with_error_note(prompt, "[['on(x, y)']]", "unknown object x")
+    lines = noted.split("\n")
+    assert lines[0] == "context" and lines[-1] == "Predicted goal predicate set (python list of lists):"
+    assert "unknown object x" in lines[1] and "[['on(x, y)']]" in lines[1]
+
+
+def test_goal_query_retries_at_most_twice_with_a_note():
+    model = ScriptedModel(["[['on(x, rack)']]", "garbage", "[['on(red_box, rack)']]"], grammar=True)
+    query = query_goal(model, "ctx\nQ:", OBJECTS)
+    assert str(query.goal) == "[['on(red_box, rack)']]"
+    assert [attempt.problem is None for attempt in query.attempts] == [False, False, True]
+    assert model.prompts[0] == "ctx\nQ:" and "Note:" in model.prompts[1] and "Note:" in model.prompts[2]
+    assert all(grammar and "red_box" in grammar for grammar in model.grammars)
+
+    failing = ScriptedModel(["nope"] * 5)
+    query = query_goal(failing, "ctx\nQ:", OBJECTS)
+    assert query.goal is None and len(query.attempts) == 3 and len(failing.answers) == 2
+    assert failing.grammars == [None, None, None]  # no grammar without the capability
+
+
+def test_unconstrained_query_sends_no_grammar_and_next_skill_requery():
+    model = ScriptedModel(["['fly(hook)']", "['pick(hook)', 'place(red_box, rack)']"], grammar=True)
+    candidates, attempts = query_next_skills(model, "ctx\nQ:", OBJECTS, constrained=False)
+    assert [str(c) for c in candidates.calls] == ["pick(hook)", "place(red_box, rack)"]
+    assert len(attempts) == 2 and model.grammars == [None, None]
+    sequences, attempts = query_skill_sequences(ScriptedModel(["[['pick(hook)']]"]), "ctx\nQ:", OBJECTS)
+    assert sequences == [(SkillCall("pick", ("hook",)),)] and attempts[0].problem is None

@@ -1,0 +1,92 @@
+"""Prompt layout (text2motion.md §10)."""
+
+from __future__ import annotations
+
+from t2m_core.domain.goals import parse_goal
+from t2m_core.language.prompts import (
+    GOAL_QUERY,
+    HistoryStep,
+    PromptBuilder,
+    examples_for_seed,
+    load_examples,
+    next_skill_query,
+    primitives,
+    scoring_request,
+    shooting_query,
+)
+from t2m_core.language.scene_description import SceneDescription
+
+SCENE = SceneDescription(
+    objects=("table", "rack", "hook", "red_box", "blue_box"),
+    relationships=("on(rack, table)", "on(hook, table)", "on(red_box, table)", "on(blue_box, table)"),
+    instruction="Put the red box on the rack.",
+)
+GOAL = parse_goal("[['on(red_box, rack)']]")
+
+
+def test_goal_prompt_layout():
+    prompt = PromptBuilder(seed=0).goal(SCENE)
+    blocks = prompt.split("\n\n")
+    assert blocks[0] == "Available predicates: ['on(a, b)', 'inhand(a)', 'under(a, b)']"
+    assert len(blocks) == 1 + 10 + 1  # header, all 10 examples, current block
+    for block in blocks[1:-1]:
+        lines = block.split("\n")
+        assert [line.split(":")[0] for line in lines] == [
+            "Available scene objects", "Object relationships", "Human instruction", "Goal predicate set"
+        ]
+    assert blocks[-1].split("\n") == [
+        "Available scene objects: ['table', 'rack', 'hook', 'red_box', 'blue_box']",
+        "Object relationships: ['on(rack, table)', 'on(hook, table)', 'on(red_box, table)', 'on(blue_box, table)']",
+        "Human instruction: Put the red box on the rack.",
+        GOAL_QUERY,
+    ]
+    assert GOAL_QUERY == "Predicted goal predicate set (python list of lists):"
+
+
+def test_next_skill_prompt_with_history_matches_the_reference_example():
+    history = [HistoryStep("pick(hook)", ("on(rack, table)", "on(red_box, table)", "on(blue_box, table)", "inhand(hook)"))]
+    prompt = PromptBuilder(seed=0).next_skill(SCENE, GOAL, history)
+    header, *examples, current = prompt.split("\n\n")
+    assert header.split("\n") == [
+        "Available primitives: ['pick(a)', 'place(a, b)', 'pull(a, hook)', 'push(a, hook, rack)']",
+        "Available predicates: ['on(a, b)', 'inhand(a)', 'under(a, b)']",
+    ]
+    assert len(examples) == 10
+    assert all(example.split("\n")[-1].startswith("Top robot action sequence: ['") for example in examples)
+    assert current.split("\n")[3:] == [
+        "Predicted goal predicate set: [['on(red_box, rack)']]",
+        "Executed action: pick(hook)",
+        "New object relationships: ['on(rack, table)', 'on(red_box, table)', 'on(blue_box, table)', 'inhand(hook)']",
+        next_skill_query(5),
+    ]
+
+
+def test_shooting_prompt_and_k():
+    prompt = PromptBuilder(seed=1, k=3).shooting(SCENE, GOAL)
+    assert prompt.endswith("Predicted goal predicate set: [['on(red_box, rack)']]\n" + shooting_query(3))
+    assert shooting_query(3) == "Top 3 robot action sequences (python list of lists):"
+
+
+def test_scoring_context_is_the_next_skill_prompt_without_its_query_line():
+    builder = PromptBuilder(seed=2)
+    history = [HistoryStep("pick(red_box)", None)]  # saycan-gs style: no relationships line
+    context = builder.scoring_context(SCENE, GOAL, history)
+    assert builder.next_skill(SCENE, GOAL, history) == context + next_skill_query(5)
+    assert context.endswith("Executed action: pick(red_box)\n")
+    prompt, continuations = scoring_request(context, ["place(red_box, rack)"])
+    assert prompt.endswith("\nExecuted action:")
+    assert continuations == [" place(red_box, rack)"]
+
+
+def test_myopic_prompts_list_stop_and_end_every_example_with_it():
+    prompt = PromptBuilder(seed=0, myopic=True).next_skill(SCENE, GOAL)
+    assert "'stop()']" in prompt.split("\n")[0]
+    plans = [line for line in prompt.split("\n") if line.startswith("Top robot action sequence:")]
+    assert len(plans) == 10 and all(line.endswith("'stop()']") for line in plans)
+    assert primitives(myopic=True)[-1] == "stop()"
+
+
+def test_example_order_is_deterministic_per_seed():
+    assert examples_for_seed(4) == examples_for_seed(4)
+    assert examples_for_seed(4) != examples_for_seed(5)
+    assert sorted(examples_for_seed(4), key=str) == sorted(load_examples(), key=str)
