@@ -61,7 +61,9 @@ def test_plugin_module_without_components_or_with_an_unmarked_hook_fails() -> No
     with pytest.raises(AssertionError, match="registers no component"):
         check_plugin_module(SimpleNamespace(__name__="empty"))  # type: ignore[arg-type]
     unmarked = SimpleNamespace(
-        __name__="unmarked", t2m_core=__import__("t2m_core"), t2m_register_simulator=hookimpl(list)
+        __name__="unmarked",
+        t2m_core=__import__("t2m_core"),
+        t2m_register_simulator=hookimpl(lambda: []),  # noqa: PIE807 - hookimpl marks the function
     )  # an imported t2m_* module is fine; a misspelt hook is not
     with pytest.raises(AssertionError, match="not t2m hooks: t2m_register_simulator"):
         check_plugin_module(unmarked)  # type: ignore[arg-type]
