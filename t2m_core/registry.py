@@ -37,7 +37,7 @@ import difflib
 import importlib
 import importlib.metadata
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from types import ModuleType
 from typing import Any
 
@@ -205,7 +205,7 @@ class Registry:
 
     def _record(self, record: PluginRecord, error: BaseException | None = None) -> PluginRecord:
         if error is not None:
-            record = PluginRecord(**{**record.__dict__, "error": _describe(error)})
+            record = replace(record, error=_describe(error))
         self._records[record.name] = record
         self._index = None
         return record
@@ -323,7 +323,7 @@ class Registry:
                 try:
                     specs = _checked_specs(kind, hook_name, implementation.function())
                 except Exception as error:  # noqa: BLE001 - a buggy plugin is listed as failed, the rest keep working
-                    self._records[record.name] = PluginRecord(**{**record.__dict__, "error": _describe(error)})
+                    self._records[record.name] = replace(record, error=_describe(error))
                     continue
                 for spec in specs:
                     _insert(index[kind], ComponentEntry(kind=kind, spec=spec, plugin=record))
