@@ -74,7 +74,7 @@ def main() -> int:
 
     results = measure(arguments.seeds, arguments.max_attempts)
     table = Table(title=f"initial-state sampler, base seeds 0..{arguments.seeds - 1}", title_justify="left")
-    for column in ("task", "success", "mean rej.", "max rej.", "accept/cand.", "ms/sample (median)", "ms (mean)"):
+    for column in ("task", "success", "mean rej.", "max rej.", "p(accept)", "ms (median)", "ms (mean)"):
         table.add_column(column, justify="right")
     for task_id, row in results.items():
         table.add_row(
