@@ -24,7 +24,9 @@ import typer
 
 TRIES_PER_SKILL = 25
 """Executions of one skill (per visit) before the search backs up one skill."""
-MAX_EXECUTIONS = 400
+RETRIES_AFTER_BACKTRACK = 3
+"""Executions of a skill revisited because a later skill exhausted its tries."""
+MAX_EXECUTIONS = 600
 """Executions of the whole search before it gives up."""
 
 
@@ -60,31 +62,39 @@ def search_skeleton(
     rng: np.random.Generator,
     *,
     tries_per_skill: int = TRIES_PER_SKILL,
+    retries_after_backtrack: int = RETRIES_AFTER_BACKTRACK,
     max_executions: int = MAX_EXECUTIONS,
 ) -> SkeletonSearch:
     """Find parameters for every skill of ``skeleton`` (``SkillCall`` s) from the simulator's
-    current state by sampling and snapshot-restored trials, backing up one skill on exhaustion."""
+    current state by sampling and snapshot-restored trials.
+
+    A skill gets ``tries_per_skill`` executions from a new start state. When they all fail, the
+    search backs up: the previous skill is sampled again, but only ``retries_after_backtrack``
+    times before the search backs up further, so an early choice that blocks a later skill (a box
+    placed where the hook must sweep) is revisited without an exponential number of executions."""
     from t2m_core.domain.primitives import get_primitive
 
     count = len(skeleton)
     result = SkeletonSearch(tries=[0] * count)
     snapshots = [simulator.get_state()]
+    budget = [tries_per_skill] * count
     visit_tries = [0] * count
     index = 0
     while 0 <= index < count and result.executions < max_executions:
-        if visit_tries[index] >= tries_per_skill:
-            visit_tries[index] = 0
+        if visit_tries[index] >= budget[index]:
+            visit_tries[index], budget[index] = 0, tries_per_skill
             index -= 1
             if index < 0:
                 break
             snapshots.pop()
             result.actions.pop()
+            visit_tries[index], budget[index] = 0, retries_after_backtrack
             continue
         call = skeleton[index]
         primitive = get_primitive(call.name)
         simulator.set_state(snapshots[index])
         state = simulator.geometric_state()
-        first = visit_tries[index] == 0 and result.tries[index] == 0
+        first = result.tries[index] == 0
         action = (primitive.heuristic_action if first else primitive.exploration_action)(state, call.args, rng)
         visit_tries[index] += 1
         result.tries[index] += 1
