@@ -76,6 +76,10 @@ GRIPPER_KV = 40.0
 GRIPPER_FORCE = 70.0
 """Newtons: the Franka hand's continuous grip force."""
 
+VISUAL_FROM_COLLISION = ("panda_link5", "panda_link6")
+"""Links whose visual .obj files (no texture coordinates) render as holes; their collision meshes
+are drawn instead, as the URDF already does for link 7."""
+
 PAD_HALF = (0.0105, 0.005, 0.032)
 """Half sizes (m) of a finger pad box: finger width, thickness, length along the finger."""
 FINGER_ORIGIN_IN_HAND = 0.0584
@@ -153,11 +157,16 @@ def load_panda_spec():
     hand.quat = [1.0, 0.0, 0.0, 0.0]  # no −45° twist: the jaw closes along world y at q_home
     hand.add_site(name=EE_SITE, pos=[0, 0, EE_IN_HAND], size=[0.005, 0, 0], rgba=[1, 0, 1, 0])
 
+    collision_mesh = {
+        geom.parent.name: geom.meshname for geom in spec.geoms if geom.parent and (geom.contype or geom.conaffinity)
+    }
     for geom in spec.geoms:
         body_name = geom.parent.name if geom.parent else ""
         is_visual = geom.contype == 0 and geom.conaffinity == 0
         if is_visual:
             geom.group = 1
+            if body_name in VISUAL_FROM_COLLISION:
+                geom.meshname = collision_mesh[body_name]
             continue
         geom.group = 3
         if body_name in ("panda_leftfinger", "panda_rightfinger"):
