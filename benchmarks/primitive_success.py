@@ -2,8 +2,9 @@
 
     python benchmarks/primitive_success.py --sim mujoco --json OUT [--samples 500]
 
-Scenes come from the tasks (same cases as sim_throughput.py); each sample is one execution from a
-fresh reset (setup skills chosen by the exploration sampler, not counted).
+Scenes come from the tasks (same cases as sim_throughput.py): one reset per seed, the setup skills
+(e.g. picking the hook before a pull) chosen by the exploration sampler and not counted, then one
+heuristic and one uniform execution from that same snapshot.
 """
 
 from __future__ import annotations
@@ -39,32 +40,35 @@ def main() -> None:
     for name, (task_id, setup, (primitive, arguments)) in CASES.items():
         task = load_task(task_id)
         rng = np.random.default_rng(1)
-        for sampler in ("heuristic", "uniform"):
-            successes, samples, failures = 0, 0, Counter()
-            for seed in track(range(args.samples), description=f"{name} {sampler}", transient=True):
-                sim.reset(task, seed=seed)
-                ready = True
-                for skill, skill_args in setup:
-                    for _ in range(20):
-                        snapshot = sim.get_state()
-                        spec = get_primitive(skill)
-                        if sim.execute(skill, skill_args, spec.exploration_action(sim.geometric_state(), skill_args, rng)).success:
-                            break
-                        sim.set_state(snapshot)
-                    else:
-                        ready = False
-                if not ready:
-                    continue
-                spec = get_primitive(primitive)
-                state = sim.geometric_state()
+        spec = get_primitive(primitive)
+        counts = {sampler: Counter() for sampler in ("heuristic", "uniform")}
+        for seed in track(range(args.samples), description=f"{name:5s}", transient=True):
+            sim.reset(task, seed=seed)
+            ready = True
+            for skill, skill_args in setup:
+                for _ in range(20):
+                    snapshot = sim.get_state()
+                    setup_spec = get_primitive(skill)
+                    action = setup_spec.exploration_action(sim.geometric_state(), skill_args, rng)
+                    if sim.execute(skill, skill_args, action).success:
+                        break
+                    sim.set_state(snapshot)
+                else:
+                    ready = False
+            if not ready:
+                continue
+            scene = sim.get_state()
+            state = sim.geometric_state()
+            for sampler, counter in counts.items():
+                sim.set_state(scene)
                 action = spec.heuristic_action(state, arguments, rng) if sampler == "heuristic" else rng.uniform(-1, 1, 4)
                 result = sim.execute(primitive, arguments, action)
-                samples += 1
-                successes += int(result.success)
-                failures[result.failure or "success"] += 1
-            report[f"{name}/{sampler}"] = {"samples": samples, "success_rate": successes / max(samples, 1),
-                                           "outcomes": dict(failures)}
-            print(f"{name:5s} {sampler:9s} {successes / max(samples, 1):6.1%} of {samples}  {dict(failures)}", flush=True)
+                counter[result.failure or "success"] += 1
+        for sampler, counter in counts.items():
+            samples = sum(counter.values())
+            rate = counter["success"] / max(samples, 1)
+            report[f"{name}/{sampler}"] = {"samples": samples, "success_rate": rate, "outcomes": dict(counter)}
+            print(f"{name:5s} {sampler:9s} {rate:6.1%} of {samples}  {dict(counter)}", flush=True)
     with open(args.json_out, "w") as stream:
         json.dump({"simulator": args.sim, "results": report}, stream, indent=2)
 
