@@ -3,7 +3,7 @@
     python benchmarks/primitive_success.py --sim mujoco --json OUT [--samples 500]
 
 Scenes come from the tasks (same cases as sim_throughput.py): one reset per seed, the setup skills
-(e.g. picking the hook before a pull) chosen by the exploration sampler and not counted, then one
+(e.g. picking the hook by its handle's tail before a pull) not counted, then one
 heuristic and one uniform execution from that same snapshot.
 """
 
@@ -29,7 +29,7 @@ def main() -> None:
     from rich.progress import track
 
     sys.path.insert(0, str(Path(__file__).parent))
-    from sim_throughput import CASES
+    from sim_throughput import CASES, prepare
 
     from t2m_core.cli.sim_cmd import resolve_simulator
     from t2m_core.domain.primitives import get_primitive
@@ -44,18 +44,7 @@ def main() -> None:
         counts = {sampler: Counter() for sampler in ("heuristic", "uniform")}
         for seed in track(range(args.samples), description=f"{name:5s}", transient=True):
             sim.reset(task, seed=seed)
-            ready = True
-            for skill, skill_args in setup:
-                for _ in range(20):
-                    snapshot = sim.get_state()
-                    setup_spec = get_primitive(skill)
-                    action = setup_spec.exploration_action(sim.geometric_state(), skill_args, rng)
-                    if sim.execute(skill, skill_args, action).success:
-                        break
-                    sim.set_state(snapshot)
-                else:
-                    ready = False
-            if not ready:
+            if not prepare(sim, setup, rng):
                 continue
             scene = sim.get_state()
             state = sim.geometric_state()
