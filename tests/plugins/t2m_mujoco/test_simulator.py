@@ -103,3 +103,16 @@ def test_colours_are_legible(sim):
     red = image[..., 0] - np.maximum(image[..., 1], image[..., 2]) > 80
     blue = image[..., 2] - np.maximum(image[..., 0], image[..., 1]) > 80
     assert red.sum() > 5 and blue.sum() > 5
+
+
+def test_grasp_validity(sim):
+    """§3.3: closing on air fails; a square grasp holds and welds the box."""
+    sim.reset(load_task("task0"), seed=0)
+    snapshot = sim.get_state()
+    pick = get_primitive("pick")
+    on_air = pick.to_normalized(np.array([0.0, 0.1, 0.0, 0.0]))  # 0.1 m beside the box
+    result = sim.execute("pick", ["yellow_box"], on_air)
+    assert result.failure == "grasp_failed" and result.state.held is None
+    sim.set_state(snapshot)
+    square = sim.execute("pick", ["yellow_box"], pick.to_normalized(np.zeros(4)))
+    assert square.success and square.state.held == "yellow_box"

@@ -1,0 +1,50 @@
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+
+from typer.testing import CliRunner  # noqa: E402
+
+from t2m_core.cli.main import app  # noqa: E402
+from t2m_core.cli.sim_cmd import run_demo, search_skeleton, write_json_atomic  # noqa: E402
+from t2m_core.tasks import load_task  # noqa: E402
+from t2m_mujoco.options import MujocoOptions  # noqa: E402
+from t2m_mujoco.simulator import MujocoSimulator  # noqa: E402
+
+
+@pytest.mark.slow
+def test_demo_reaches_task0_goal_and_records(tmp_path):
+    sim = MujocoSimulator(MujocoOptions(render_width=64, render_height=48, video_fps=5))
+    result = run_demo(sim, load_task("task0"), 0, tmp_path)
+    assert result["success"], result["failure"]
+    assert [step["skill"] for step in result["steps"]] == [str(c) for c in load_task("task0").reference_skeleton]
+    assert all(step["success"] and step["tries"] >= 1 for step in result["steps"])
+    assert (tmp_path / "video.mp4").stat().st_size > 1000
+
+
+def test_search_reports_exhaustion():
+    """A skeleton whose first skill cannot succeed (pick of a box beyond reach) is not found."""
+    sim = MujocoSimulator(MujocoOptions(render_width=64, render_height=48))
+    task = load_task("task3")
+    sim.reset(task, seed=0)
+    from t2m_core.domain.skills import SkillCall
+
+    search = search_skeleton(sim, [SkillCall("pick", ("blue_box",))], np.random.default_rng(0), tries_per_skill=4)
+    assert not search.found and search.tries == [4] and search.failures == {"not_in_workspace": 4}
+
+
+def test_write_json_atomic(tmp_path):
+    path = tmp_path / "result.json"
+    write_json_atomic(path, {"success": True})
+    assert json.loads(path.read_text()) == {"success": True}
+    with pytest.raises(TypeError):
+        write_json_atomic(path, {"bad": object()})
+    assert json.loads(path.read_text()) == {"success": True}  # the good file survived
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["result.json"]
+
+
+def test_cli_lists_demo():
+    result = CliRunner().invoke(app, ["sim", "demo", "--help"])
+    assert result.exit_code == 0 and "--task" in result.output and "--out" in result.output
