@@ -29,33 +29,43 @@ class ReplayLanguageModel:
         records = read_transcript(self.path)
         self._answers: dict[str, list[Any]] = defaultdict(list)
         self._served: dict[str, int] = defaultdict(int)
-        self._prompts: list[str] = []
+        self._requests: list[dict[str, Any]] = []
         scorers = set()
+        grammar = False
         for record in records:
             self._answers[request_key(record["kind"], record["request"])].append(record["response"])
-            self._prompts.append(record["request"].get("prompt", ""))
+            self._requests.append(record["request"])
             if record["kind"] == "score":
                 scorers.add(record.get("scorer"))
-        # Replayed scores are exact only if every recorded one was.
-        self.capabilities = LanguageModelCapabilities(exact_scoring=scorers <= {"exact"}, grammar=True)
+            grammar = grammar or bool(record["request"].get("grammar"))
+        # Replay what the recorded model could do, so callers send the same requests again.
+        self.capabilities = LanguageModelCapabilities(exact_scoring=scorers <= {"exact"}, grammar=grammar)
 
     def _answer(self, kind: str, request: dict[str, Any]) -> Any:
         key = request_key(kind, request)
         answers = self._answers.get(key)
         if not answers:
             raise T2MError(
-                f"replay: no recorded {kind!r} answer for this request in {self.path}{self._nearest(request['prompt'])}",
+                f"replay: no recorded {kind!r} answer for this request in {self.path}{self._nearest(request)}",
                 hint="replay the transcript with the same task, seed, planner and prompt settings that recorded it",
             )
         index = min(self._served[key], len(answers) - 1)
         self._served[key] += 1
         return answers[index]
 
-    def _nearest(self, prompt: str) -> str:
-        """A short description of how ``prompt`` differs from the most similar recorded one."""
-        if not self._prompts:
+    def _nearest(self, request: dict[str, Any]) -> str:
+        """A short description of how ``request`` differs from the most similar recorded one."""
+        if not self._requests:
             return " (the transcript is empty)"
-        nearest = max(self._prompts, key=lambda recorded: difflib.SequenceMatcher(None, recorded[-400:], prompt[-400:]).ratio())
+        prompt = request["prompt"]
+        recorded = max(
+            self._requests,
+            key=lambda old: difflib.SequenceMatcher(None, old.get("prompt", "")[-400:], prompt[-400:]).ratio(),
+        )
+        nearest = recorded.get("prompt", "")
+        if nearest == prompt:
+            differing = sorted(key for key in request if recorded.get(key) != request[key])
+            return f"; a recorded request has the same prompt but different {', '.join(differing)}"
         for position, (old, new) in enumerate(zip(nearest, prompt, strict=False)):
             if old != new:
                 break

@@ -46,6 +46,7 @@ def test_replay_serves_recorded_answers_in_order(tmp_path):
     assert replay.complete("p1", max_tokens=10, stop=["\n"]) == ["answer 2"]  # the last one repeats
     assert replay.score("ctx", [" a", " b"]) == [-1.0, -2.0]
     assert replay.capabilities.exact_scoring
+    assert not replay.capabilities.grammar  # nothing was recorded with a grammar
 
 
 def test_a_request_never_recorded_is_an_error_naming_the_difference(tmp_path):
@@ -53,7 +54,7 @@ def test_a_request_never_recorded_is_an_error_naming_the_difference(tmp_path):
     with pytest.raises(T2MError, match="no recorded 'complete' answer") as raised:
         replay.complete("p2", max_tokens=10, stop=["\n"])
     assert "differs at character 1" in str(raised.value)
-    with pytest.raises(T2MError):
+    with pytest.raises(T2MError, match="same prompt but different max_tokens"):
         replay.complete("p1", max_tokens=11, stop=["\n"])  # any parameter counts
     with pytest.raises(T2MError):
         replay.score("ctx", [" b", " a"])
