@@ -69,9 +69,10 @@ def search_skeleton(
     current state by sampling and snapshot-restored trials.
 
     A skill gets ``tries_per_skill`` executions from a new start state. When they all fail, the
-    search backs up: the previous skill is sampled again, but only ``retries_after_backtrack``
-    times before the search backs up further, so an early choice that blocks a later skill (a box
-    placed where the hook must sweep) is revisited without an exponential number of executions."""
+    search backs up. If the failures were collisions with an object that an earlier skill of the
+    skeleton moved (a box placed where the hook must sweep), it jumps back to that skill; otherwise
+    to the previous one. A skill revisited this way gets ``retries_after_backtrack`` executions
+    before the search backs up further, which keeps the search from growing exponentially."""
     from t2m_core.domain.primitives import get_primitive
 
     count = len(skeleton)
@@ -79,16 +80,19 @@ def search_skeleton(
     snapshots = [simulator.get_state()]
     budget = [tries_per_skill] * count
     visit_tries = [0] * count
+    blamed: list[dict[str, int]] = [{} for _ in range(count)]
     index = 0
     while 0 <= index < count and result.executions < max_executions:
         if visit_tries[index] >= budget[index]:
-            visit_tries[index], budget[index] = 0, tries_per_skill
-            index -= 1
+            target = _backjump_target(skeleton, index, blamed[index])
+            for undone in range(target, index + 1):
+                visit_tries[undone], budget[undone], blamed[undone] = 0, tries_per_skill, {}
+            del snapshots[target + 1 :]
+            del result.actions[target:]
+            index = target
             if index < 0:
                 break
-            snapshots.pop()
-            result.actions.pop()
-            visit_tries[index], budget[index] = 0, retries_after_backtrack
+            budget[index] = retries_after_backtrack
             continue
         call = skeleton[index]
         primitive = get_primitive(call.name)
@@ -107,8 +111,22 @@ def search_skeleton(
             index += 1
         else:
             result.failures[outcome.failure] = result.failures.get(outcome.failure, 0) + 1
+            for contact in outcome.contacts:
+                blamed[index][contact.body_b] = blamed[index].get(contact.body_b, 0) + 1
     result.found = index == count
     return result
+
+
+def _backjump_target(skeleton: Sequence[Any], index: int, blamed: dict[str, int]) -> int:
+    """The skill to sample again after skill ``index`` exhausted its tries: the latest earlier skill
+    that moved the object the failures collided with most, else the previous skill (−1: none)."""
+    if blamed:
+        culprit = max(blamed, key=blamed.get)
+        for earlier in range(index - 1, -1, -1):
+            call = skeleton[earlier]
+            if call.name != "pick" and call.args and call.args[0] == culprit:
+                return earlier
+    return index - 1
 
 
 def run_demo(
