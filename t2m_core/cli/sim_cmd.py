@@ -3,8 +3,8 @@
 The demo is a check of a backend and its primitives, not a planner: for each skill of the task's
 reference skeleton it samples parameters (the domain's heuristic action first, then its exploration
 sampler: heuristic plus noise, sometimes uniform), executes them from a restored snapshot and keeps
-the first that succeeds. When a skill exhausts its tries, the search backs up one skill and samples
-that one again (a bounded depth-first search). The chosen actions are then replayed from a fresh
+the first that succeeds. When a skill exhausts its tries, the search backs up and samples an earlier
+skill again (a bounded depth-first search, see :func:`search_skeleton`). The chosen actions are then replayed from a fresh
 reset of the same seed, recording ``video.mp4``, and ``result.json`` is written.
 """
 
@@ -23,7 +23,7 @@ import numpy as np
 import typer
 
 TRIES_PER_SKILL = 25
-"""Executions of one skill (per visit) before the search backs up one skill."""
+"""Executions of one skill from a new start state before the search backs up."""
 RETRIES_AFTER_BACKTRACK = 3
 """Executions of a skill revisited because a later skill exhausted its tries."""
 MAX_EXECUTIONS = 600
