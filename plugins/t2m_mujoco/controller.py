@@ -127,6 +127,23 @@ class InverseKinematics:
             dq += (np.eye(7) - pinv @ jac) @ (IK_NULL_GAIN * (null_target - q))
         return np.clip(q + dq, self._low, self._high)
 
+    def _iterate(
+        self,
+        q: np.ndarray,
+        position: np.ndarray,
+        rotation: np.ndarray,
+        null_target: np.ndarray | None,
+        iterations: int,
+        tolerance: float,
+    ) -> np.ndarray:
+        """Up to ``iterations`` :meth:`step` s, stopping when no joint moves more than ``tolerance`` rad."""
+        for _ in range(iterations):
+            q_next = self.step(q, position, rotation, null_target)
+            if np.max(np.abs(q_next - q)) < tolerance:
+                return q_next
+            q = q_next
+        return q
+
     def solve(
         self, position: np.ndarray, rotation: np.ndarray, seed: np.ndarray, null_target: np.ndarray, iterations: int = 60
     ) -> IKResult:
@@ -134,19 +151,8 @@ class InverseKinematics:
 
         The null-space pull shapes the posture during the first ``iterations``; a few final
         iterations without it remove the small task error the damped projection leaks."""
-        q = np.array(seed, dtype=np.float64)
-        for _ in range(iterations):
-            q_next = self.step(q, position, rotation, null_target)
-            converged = np.max(np.abs(q_next - q)) < 1e-6
-            q = q_next
-            if converged:
-                break
-        for _ in range(IK_POLISH_ITERATIONS):
-            q_next = self.step(q, position, rotation, None)
-            converged = np.max(np.abs(q_next - q)) < 1e-7
-            q = q_next
-            if converged:
-                break
+        q = self._iterate(np.array(seed, dtype=np.float64), position, rotation, null_target, iterations, 1e-6)
+        q = self._iterate(q, position, rotation, None, IK_POLISH_ITERATIONS, 1e-7)
         reached, reached_rotation = self.forward(q)
         position_error = float(np.linalg.norm(position - reached))
         orientation_error = float(np.linalg.norm(rotation_error(rotation, reached_rotation)))
