@@ -25,7 +25,7 @@ import numpy as np
 
 from t2m_core.domain.objects import OBJECTS, ObjectKind, object_spec
 from t2m_mujoco import robot_model
-from t2m_mujoco.robot_model import OBJECT_BIT, ROBOT_BIT, TABLE_BIT
+from t2m_mujoco.robot_model import OBJECT_BIT, TABLE_BIT
 
 OBJECT_FRICTION = 0.5
 TABLE_FRICTION = 1.0

@@ -146,6 +146,7 @@ class MujocoSimulator:
             if _touches_arm(world, held):
                 return "held_object_touches_robot"
         move = MotionStep(MotionKind.MOVE, "random_pose", sampled.robot_pose.position, sampled.robot_pose.yaw)
+        executor.begin_primitive()
         if executor.run(move).failure is not None:
             return "robot_pose_unreachable"
         if executor.settle(RESET_SETTLE_MAX_TICKS / 60.0) >= RESET_SETTLE_MAX_TICKS:

@@ -15,7 +15,6 @@ import numpy as np
 from t2m_core.domain.constants import EPS_TWIST
 from t2m_core.domain.state import GeometricState, ObjectPose
 from t2m_core.protocols import Contact
-from t2m_mujoco import robot_model
 from t2m_mujoco.controller import InverseKinematics
 from t2m_mujoco.robot_model import FINGER_OPEN, Q_HOME
 from t2m_mujoco.scene import SceneModel
@@ -294,4 +293,4 @@ def robot_geoms(world: World) -> np.ndarray:
     return np.array([g for g in range(model.ngeom) if model.geom_bodyid[g] in fingers and model.geom_contype[g]])
 
 
-__all__ = ["Snapshot", "World", "robot_geoms", "robot_model"]
+__all__ = ["Snapshot", "World", "robot_geoms"]
