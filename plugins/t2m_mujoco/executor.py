@@ -4,7 +4,7 @@ Everything geometric (waypoints, which bodies a motion may not touch, success te
 domain; this module only turns a step into servo targets, ticks, and the control failures of
 tableenv.md §3.2: ``"unreachable"`` (IK outside the joint limits, or a motion that neither converges
 nor stalls within 10 s), ``"collision"`` (a finger or the held object touching a forbidden body,
-checked every 10 ticks) and ``"grasp_failed"`` (§3.3).
+checked every 10 ticks and when the motion ends) and ``"grasp_failed"`` (§3.3).
 
 Timing is counted in 1/60 s ticks, as the reference requires: motion timeout 600 ticks, gripper
 timeout 60 ticks, settle up to ``timeout_s``.
@@ -78,7 +78,7 @@ class Executor:
         self.yaw_offset = 0.0
 
     def begin_primitive(self) -> None:
-        """Forget the half-turn choice of the previous primitive (see :meth:`_choose_yaw`)."""
+        """Forget the half-turn yaw choice of the previous primitive (see :meth:`_move`)."""
         self.yaw_offset = 0.0
 
     # --- public -----------------------------------------------------------------------------------
@@ -207,12 +207,8 @@ class Executor:
                 world.set_arm_target(q_target)
                 self._tick()
 
-                if forbidden and tick % CONTACT_CHECK_PERIOD == 0:
-                    hits = world.contacts_between(watched, forbidden)
-                    if hits:
-                        report.contacts.extend(_contacts(world, hits))
-                        report.failure = "collision"
-                        return report
+                if forbidden and tick % CONTACT_CHECK_PERIOD == 0 and self._collided(watched, forbidden, report):
+                    return report
                 if progress < 1.0:
                     continue  # the servo follows the ramp; convergence is judged at its end
                 position, rotation = world.ee_pose()
@@ -230,6 +226,9 @@ class Executor:
                 )
                 stalled = averaged_speed < STALLED_SPEED and averaged_angular < STALLED_ANGULAR_SPEED
                 if converged or stalled:
+                    # a last check, so a contact made after the last periodic check is not missed
+                    if forbidden and tick % CONTACT_CHECK_PERIOD:
+                        self._collided(watched, forbidden, report)
                     return report
             report.failure = "unreachable"  # neither converged nor stalled in 10 s
             return report
@@ -238,6 +237,14 @@ class Executor:
                 self._restore_gains(gains)
 
     # --- helpers ----------------------------------------------------------------------------------
+
+    def _collided(self, watched: np.ndarray, forbidden: list[int], report: StepReport) -> bool:
+        """Record a ``"collision"`` in ``report`` if a watched geom touches a forbidden body now."""
+        hits = self.world.contacts_between(watched, forbidden)
+        if hits:
+            report.contacts.extend(_contacts(self.world, hits))
+            report.failure = "collision"
+        return bool(hits)
 
     def _straight_keyframes(
         self,
