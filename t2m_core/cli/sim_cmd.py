@@ -219,8 +219,8 @@ def demo(
 
     console = Console(stderr=True)
     task = load_task(task_id)
-    out.mkdir(parents=True, exist_ok=True)
     simulator = resolve_simulator(sim)
+    out.mkdir(parents=True, exist_ok=True)
     try:
         with console.status(f"{sim}: searching and replaying {task.id} seed {seed}..."):
             result = run_demo(simulator, task, seed, out)
