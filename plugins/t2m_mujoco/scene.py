@@ -34,7 +34,7 @@ FLOOR_Z = -0.75
 
 CAMERAS: dict[str, tuple[tuple[float, float, float], tuple[float, float, float], float]] = {
     # name: (position, look-at point, vertical field of view in degrees)
-    "front": ((1.55, 0.75, 0.95), (0.42, -0.02, 0.06), 45.0),
+    "front": ((1.5, 0.65, 1.25), (0.33, -0.02, 0.12), 45.0),
     "side": ((0.45, -1.45, 0.85), (0.45, 0.0, 0.08), 45.0),
     "top": ((0.45, 0.0, 1.6), (0.45, 0.0, 0.0), 45.0),
 }
