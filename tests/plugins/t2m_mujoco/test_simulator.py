@@ -116,3 +116,16 @@ def test_grasp_validity(sim):
     sim.set_state(snapshot)
     square = sim.execute("pick", ["yellow_box"], pick.to_normalized(np.zeros(4)))
     assert square.success and square.state.held == "yellow_box"
+
+
+def test_record_video_returns_frames():
+    recorder = MujocoSimulator(MujocoOptions(render_width=64, render_height=48, record_video=True, video_fps=10))
+    try:
+        recorder.reset(load_task("task0"), seed=0)
+        state = recorder.geometric_state()
+        result = recorder.execute("pick", ["yellow_box"], get_primitive("pick").heuristic_action(state, ["yellow_box"], np.random.default_rng(0)))
+        # one frame every 6 ticks of a pick that lasts over 100 ticks
+        assert len(result.frames) > 15
+        assert result.frames[0].shape == (48, 64, 3) and result.frames[0].dtype == np.uint8
+    finally:
+        recorder.close()
