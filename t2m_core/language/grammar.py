@@ -19,8 +19,9 @@ from collections.abc import Sequence
 from t2m_core.domain.objects import OBJECTS
 from t2m_core.domain.skills import SKILLS, STOP
 
-MAX_GOAL_ALTERNATIVES = 8
-MAX_PROPOSITIONS_PER_ALTERNATIVE = 6
+MAX_GOAL_ALTERNATIVES = 6
+"""The most alternatives any task needs (task5: six pairs); more would not fit in 200 tokens."""
+MAX_PROPOSITIONS_PER_ALTERNATIVE = 4
 
 
 def _literal(text: str) -> str:

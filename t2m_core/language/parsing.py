@@ -163,8 +163,9 @@ def _first_list(text: str) -> list:
 def with_error_note(prompt: str, answer: str, problem: str) -> str:
     """``prompt`` with a one-line note about the rejected ``answer`` inserted before its query line."""
     head, newline, query = prompt.rpartition("\n")
-    shown = answer.strip().replace("\n", " ")[:200]
-    note = f"Note: the answer {shown!r} was rejected ({problem}). Use only the listed objects and predicates."
+    shown = " ".join(answer.split())[:200]
+    reason = " ".join(problem.split("\n")[0].split())[:200]  # the first line: no excerpt with a caret
+    note = f"Note: the answer {shown!r} was rejected ({reason}). Use only the listed objects and predicates."
     return f"{head}{newline}{note}\n{query}" if newline else f"{note}\n{prompt}"
 
 

@@ -13,7 +13,8 @@ Layout (§10.2)::
     <query line>
 
 All 10 in-context examples (:mod:`t2m_core.language.examples`) are used, in an order shuffled once per
-run with the run seed (:func:`examples_for_seed`).
+run with the run seed (:func:`examples_for_seed`), then (by default) sorted so that the examples most
+relevant to the instruction stand last, next to the query (:func:`examples_by_relevance`).
 
 Usage::
 
@@ -28,6 +29,7 @@ from __future__ import annotations
 
 import functools
 import random
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from importlib import resources
@@ -172,6 +174,43 @@ def examples_for_seed(seed: int, examples: Sequence[Example] | None = None) -> t
     return tuple(ordered)
 
 
+# Words that say which goal relation an instruction asks for; small models copy the relation of the
+# example closest to the query, so that example should ask for the same one.
+_RELATION_WORDS = {
+    "on": "on", "onto": "on", "to": "on", "atop": "on",
+    "under": "under", "beneath": "under", "underneath": "under", "below": "under", "hidden": "under",
+    "tuck": "under", "slide": "under", "push": "under", "shove": "under",
+}
+_STOPWORDS = frozenset(
+    "a an the of and or for me my i you your it them is be would could can how please do what "
+    "box boxes rack put get move make set".split()
+)
+RELATION_WEIGHT = 3.0
+"""How much a shared goal relation counts against one shared content word."""
+
+
+def _instruction_features(text: str) -> tuple[set[str], set[str]]:
+    """(goal relations named, content words) of an instruction."""
+    words = re.findall(r"[a-z]+", text.lower())
+    relations = {_RELATION_WORDS[word] for word in words if word in _RELATION_WORDS}
+    content = {word.rstrip("s") for word in words if word not in _STOPWORDS and word not in _RELATION_WORDS}
+    return relations, content
+
+
+def relevance(instruction: str, example: Example) -> float:
+    """How close ``example`` is to ``instruction``: shared goal relations (weighted) + shared content words."""
+    relations, content = _instruction_features(instruction)
+    example_relations, example_content = _instruction_features(example.instruction)
+    return RELATION_WEIGHT * len(relations & example_relations) + len(content & example_content)
+
+
+def examples_by_relevance(instruction: str, seed: int, examples: Sequence[Example] | None = None) -> tuple[Example, ...]:
+    """All examples, the most relevant to ``instruction`` last (next to the query); ties keep the
+    seed's shuffled order. Deterministic for a given instruction and seed."""
+    shuffled = examples_for_seed(seed, examples)
+    return tuple(sorted(shuffled, key=lambda example: relevance(instruction, example)))
+
+
 # --------------------------------------------------------------------------------------------------
 # Prompt parts
 # --------------------------------------------------------------------------------------------------
@@ -238,38 +277,59 @@ class PromptBuilder:
         k: candidates per query (K = 5).
         myopic: prompts of the saycan-gs / innermono-gs baselines (``stop()`` is a primitive and every
             example plan ends with it).
+        order: ``"relevance"`` (default): the seed's shuffle, then the examples most relevant to the
+            instruction moved next to the query (:func:`examples_by_relevance`); ``"shuffled"``: the
+            seed's shuffle only, as in the reference. The order is a free choice (§10.3); relevance
+            order keeps a small model from copying the goal relation of an unrelated last example.
     """
 
-    def __init__(self, seed: int = 0, examples: Sequence[Example] | None = None, k: int = K, myopic: bool = False) -> None:
-        self.examples = examples_for_seed(seed, examples)
+    def __init__(
+        self,
+        seed: int = 0,
+        examples: Sequence[Example] | None = None,
+        k: int = K,
+        myopic: bool = False,
+        order: str = "relevance",
+    ) -> None:
+        if order not in ("relevance", "shuffled"):
+            raise ValueError(f"example order must be 'relevance' or 'shuffled', got {order!r}")
+        self.seed = seed
+        self.example_set = tuple(load_examples() if examples is None else examples)
         self.k = k
         self.myopic = myopic
+        self.order = order
+
+    def examples_for(self, instruction: str) -> tuple[Example, ...]:
+        """The examples in the order the prompts for ``instruction`` show them."""
+        if self.order == "shuffled":
+            return examples_for_seed(self.seed, self.example_set)
+        return examples_by_relevance(instruction, self.seed, self.example_set)
 
     def goal(self, scene: SceneDescription) -> str:
         """Goal-prediction prompt (§10.4), ending with the goal query line."""
         header = _header(planning=False, myopic=False)
-        blocks = [_example_block(example, planning=False, myopic=False) for example in self.examples]
+        blocks = [_example_block(example, planning=False, myopic=False) for example in self.examples_for(scene.instruction)]
         return _assemble(header, blocks, [*scene.lines(), GOAL_QUERY])
 
     def _planning_context(self, scene: SceneDescription, goal: Goal | str, history: Sequence[HistoryStep]) -> list[str]:
         return [*scene.lines(), PREDICTED_GOAL_LABEL + str(goal), *_history_lines(history)]
 
-    def _planning(self, current: list[str]) -> str:
+    def _planning(self, instruction: str, current: list[str]) -> str:
         header = _header(planning=True, myopic=self.myopic)
-        blocks = [_example_block(example, planning=True, myopic=self.myopic) for example in self.examples]
+        blocks = [_example_block(example, planning=True, myopic=self.myopic) for example in self.examples_for(instruction)]
         return _assemble(header, blocks, current)
 
     def shooting(self, scene: SceneDescription, goal: Goal | str, history: Sequence[HistoryStep] = ()) -> str:
         """Shooting prompt (§10.5): K whole sequences, continuing ``history`` when it is not empty."""
-        return self._planning([*self._planning_context(scene, goal, history), shooting_query(self.k)])
+        return self._planning(scene.instruction, [*self._planning_context(scene, goal, history), shooting_query(self.k)])
 
     def next_skill(self, scene: SceneDescription, goal: Goal | str, history: Sequence[HistoryStep] = ()) -> str:
         """Next-skill prompt (§10.6): K candidate next skills."""
-        return self._planning([*self._planning_context(scene, goal, history), next_skill_query(self.k)])
+        return self._planning(scene.instruction, [*self._planning_context(scene, goal, history), next_skill_query(self.k)])
 
     def scoring_context(self, scene: SceneDescription, goal: Goal | str, history: Sequence[HistoryStep] = ()) -> str:
         """The next-skill prompt without its query line (§10.7), ending with a newline."""
-        return self._planning(self._planning_context(scene, goal, history)) + "\n"
+        return self._planning(scene.instruction, self._planning_context(scene, goal, history)) + "\n"
 
 
 def scoring_request(context: str, candidates: Sequence[str]) -> tuple[str, list[str]]:

@@ -11,7 +11,7 @@ def test_goal_grammar_names_only_scene_objects_and_goal_predicates():
     text = goal_grammar(OBJECTS)
     assert 'obj ::= ("table" | "rack" | "hook" | "red_box")' in text
     assert '("on" | "under")' in text and '"inhand("' in text
-    assert "{0,7}" in text  # at most 8 alternatives
+    assert "{0,5}" in text  # at most 6 alternatives
 
 
 def test_typed_skill_grammar_restricts_argument_kinds():

@@ -90,3 +90,17 @@ def test_example_order_is_deterministic_per_seed():
     assert examples_for_seed(4) == examples_for_seed(4)
     assert examples_for_seed(4) != examples_for_seed(5)
     assert sorted(examples_for_seed(4), key=str) == sorted(load_examples(), key=str)
+
+
+def test_relevance_order_puts_the_closest_example_next_to_the_query():
+    from t2m_core.language.prompts import examples_by_relevance, relevance
+
+    ordered = examples_by_relevance("Push the cyan box beneath the rack.", seed=0)
+    assert sorted(ordered, key=str) == sorted(load_examples(), key=str)
+    scores = [relevance("Push the cyan box beneath the rack.", example) for example in ordered]
+    assert scores == sorted(scores) and scores[-1] > scores[0]
+    assert any(proposition.startswith("under(") for proposition in ordered[-1].goal[0])
+    # the builder shows that order; the reference's plain shuffle stays available
+    builder = PromptBuilder(seed=0)
+    assert builder.examples_for("Push the cyan box beneath the rack.") == ordered
+    assert PromptBuilder(seed=0, order="shuffled").examples_for("anything") == examples_for_seed(0)
