@@ -216,43 +216,52 @@ class LocalLanguageModel:
         shared = next((index for index, end in enumerate(ends) if end > boundary), common)
         if shared == 0:
             raise ValueError("scoring needs a non-empty context before the candidates")
-        # Evaluate all but the last shared token once; each candidate batch re-decodes that token
-        # so its logits predict the candidate's first token.
+        # Evaluate all but the last shared token once; the candidates' decodes start with that token
+        # so its logits predict each candidate's first token.
         base = shared - 1
-        scores = []
+        boundary_in_suffix = boundary - (ends[base - 1] if base else 0)
+        suffixes = [list(tokens[base:]) for tokens in full]
+        # Candidates in token order share leading tokens ("place(hook," ...): each is decoded only from
+        # where it leaves the previous one, on top of that one's cached keys and values.
+        order = sorted(range(len(suffixes)), key=lambda index: suffixes[index])
+        scores = [0.0] * len(suffixes)
         with self._lock:
             self._eval_prefix(first[:base])
-            base_bytes = ends[base - 1] if base else 0
-            for tokens in full:
-                scores.append(self._score_suffix(tokens, base, boundary - base_bytes))
+            previous: list[int] = []
+            rows: list[np.ndarray] = []  # rows[i]: log-probabilities after suffix[: i + 1]
+            for index in order:
+                suffix = suffixes[index]
+                common = 0
+                # only rows that were decoded (never the last token's) can be reused
+                while common < min(len(previous) - 1, len(suffix)) and previous[common] == suffix[common]:
+                    common += 1
+                rows = rows[:common] + self._decode_rows(suffix, base, common)
+                scores[index] = self._sum_candidate(suffix, rows, boundary_in_suffix)
+                previous = suffix
             llama.n_tokens = base
             llama._ctx.kv_cache_seq_rm(-1, base, -1)
             # The live logits now belong to a candidate, not to the cached prefix.
             llama._requires_eval = True
         return scores
 
-    def _score_suffix(self, tokens: Sequence[int], base: int, boundary: int) -> float:
-        """Decode ``tokens[base:]`` on the cached ``tokens[:base]`` and sum the candidate's log-probs.
-
-        ``boundary`` is the candidate's first byte, counted from the start of ``tokens[base]``.
-        """
+    def _decode_rows(self, suffix: Sequence[int], base: int, start: int) -> list[np.ndarray]:
+        """Log-probability rows ``(V,) float64`` after ``suffix[: i + 1]`` for ``i`` in
+        ``start .. len(suffix) - 2``, decoding those tokens at positions ``base + i`` on top of a KV
+        cache that holds ``tokens[: base + start]``. The last token predicts nothing scored."""
         llama = self._llama
-        suffix = list(tokens[base:])
-        if len(suffix) > llama.n_batch:
+        pending = list(suffix[start : len(suffix) - 1])
+        llama._ctx.kv_cache_seq_rm(-1, base + start, -1)
+        if not pending:
+            return []
+        if len(pending) > llama.n_batch:
             raise ValueError(f"a candidate of {len(suffix)} tokens is longer than the batch ({llama.n_batch})")
-        llama._ctx.kv_cache_seq_rm(-1, base, -1)
-        llama._batch.set_batch(batch=suffix, n_past=base, logits_all=True)
-        # The last token predicts nothing we score; skip its (151k-wide) logits row where possible.
-        if len(suffix) > 1:
-            llama._batch.batch.logits[len(suffix) - 1] = False
+        llama._batch.set_batch(batch=pending, n_past=base + start, logits_all=True)
         llama._ctx.decode(llama._batch)
-        rows = max(len(suffix) - 1, 1)
-        logits = np.ctypeslib.as_array(llama._ctx.get_logits(), shape=(rows, llama.n_vocab()))
-        logprobs = _log_softmax(logits)
+        logits = np.ctypeslib.as_array(llama._ctx.get_logits(), shape=(len(pending), llama.n_vocab()))
+        return list(_log_softmax(logits))
+
+    def _sum_candidate(self, suffix: Sequence[int], rows: Sequence[np.ndarray], boundary: int) -> float:
+        """Σ log p of the suffix tokens that cover bytes at or after ``boundary`` (counted from the
+        start of ``suffix[0]``); ``rows[i]`` predicts ``suffix[i + 1]``."""
         ends = self._token_byte_ends(suffix)
-        total = 0.0
-        # Row i predicts suffix token i + 1.
-        for row in range(len(suffix) - 1):
-            if ends[row + 1] > boundary:
-                total += float(logprobs[row, suffix[row + 1]])
-        return total
+        return float(sum(rows[i][suffix[i + 1]] for i in range(len(suffix) - 1) if ends[i + 1] > boundary))
