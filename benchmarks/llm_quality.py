@@ -24,7 +24,6 @@ scored candidate once the prompt prefix is cached (goal: under 50 ms).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import statistics
 import sys
@@ -36,20 +35,14 @@ from rich.console import Console
 from rich.progress import Progress
 from rich.table import Table
 
+from t2m_core.cli.sim_cmd import write_json_atomic
+from t2m_core.domain.goals import parse_goal
 from t2m_core.language.parsing import query_goal, query_next_skills
 from t2m_core.language.prompts import K
 from t2m_core.language.scene_description import describe_task_scene
 from t2m_core.language.selection import create_language_model
 from t2m_core.language.session import LanguageSession, valid_groundings
 from t2m_core.tasks import list_tasks
-
-
-def write_json_atomic(path: Path, data: Any) -> None:
-    """Write JSON through a temporary file in the same directory, then ``os.replace``."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(path.name + ".tmp")
-    temporary.write_text(json.dumps(data, indent=2))
-    os.replace(temporary, path)
 
 
 def speed(model: Any, session: LanguageSession) -> dict[str, float]:
@@ -61,16 +54,13 @@ def speed(model: Any, session: LanguageSession) -> dict[str, float]:
     elapsed = time.perf_counter() - start
     if hasattr(model, "count_tokens"):
         figures["generation_tokens_per_s"] = model.count_tokens(text) / elapsed
-    task_goal = None
     calls = valid_groundings(session.scene.objects, session.scene.relationships)[:K]
-    from t2m_core.domain.goals import parse_goal
-
-    task_goal = parse_goal("[['on(rack, table)']]")
-    session.score(task_goal, [], calls)  # evaluates and caches the prefix
+    goal = parse_goal("[['on(rack, table)']]")
+    session.score(goal, [], calls)  # evaluates and caches the prefix
     start = time.perf_counter()
     repeats = 3
     for _ in range(repeats):
-        session.score(task_goal, [], calls)
+        session.score(goal, [], calls)
     figures["ms_per_scored_candidate"] = (time.perf_counter() - start) * 1000 / (repeats * len(calls))
     return figures
 
@@ -207,6 +197,7 @@ def main(argv: list[str] | None = None) -> int:
     figures["summary"] = summarise(goals, nexts, variants)
     figures["goal_cases"] = goals
     figures["next_cases"] = nexts
+    args.json_out.parent.mkdir(parents=True, exist_ok=True)
     write_json_atomic(args.json_out, figures)
 
     table = Table(title=f"llm_quality --llm {args.llm} (seed {args.seed})", title_justify="left")
