@@ -54,7 +54,7 @@ def _import_litellm() -> Any:
     return litellm
 
 
-def scoring_context(prompt: str) -> str:
+def without_query_line(prompt: str) -> str:
     """The scoring prompt without its final query line (``Executed action:``)."""
     head, newline, last = prompt.rpartition("\n")
     return head + newline if newline and last.rstrip().endswith(":") else prompt
@@ -208,7 +208,7 @@ class LiteLLMLanguageModel:
         )
 
     def _multiple_choice(self, prompt: str, candidates: Sequence[str]) -> list[float]:
-        context = scoring_context(prompt)
+        context = without_query_line(prompt)
         options = [candidate.strip() for candidate in candidates]
         labels = choice_labels(len(options))
         per_ordering = []

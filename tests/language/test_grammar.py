@@ -24,3 +24,9 @@ def test_typed_skill_grammar_restricts_argument_kinds():
     # a scene without a hook cannot ground pull or push when typed
     no_hook = skill_list_grammar(("table", "rack", "red_box"), 5, typed=True)
     assert '"pull("' not in no_hook and '"push("' not in no_hook
+
+
+def test_sequence_grammar_bounds_sequences_and_length():
+    text = skill_sequences_grammar(OBJECTS, k=5, d_max=10)
+    assert 'root ::= ws "[" seq ("," ws seq){0,4} "]"' in text
+    assert 'seq ::= "[" item ("," ws item){0,9} "]"' in text
