@@ -127,3 +127,12 @@ def test_text_completion_with_echoed_prompt_logprobs(server):
     scores = model.score(prompt, continuations)
     # llama-cpp-python 0.3.36 echoes wrong prompt log-probabilities, so only their form is checked here
     assert len(scores) == 2 and all(math.isfinite(value) and value < 0 for value in scores)
+
+
+def test_multiple_choice_context_drops_the_executed_action_line_and_stops_are_applied():
+    from t2m_litellm.backend import _cut_at_stop, without_query_line
+
+    assert without_query_line("a\nb\nExecuted action:") == "a\nb\n"
+    assert without_query_line("a\nb: c") == "a\nb: c"  # a full line, not a query label
+    assert _cut_at_stop("[1]\nExecuted action: x", ["Executed action:", "\n"]) == "[1]"
+    assert _cut_at_stop("[1]", []) == "[1]"
