@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from t2m_core.errors import ModelFileError
+from t2m_core.errors import ModelFileError, T2MError
 from t2m_core.protocols import LanguageModelCapabilities
 
 from t2m_llm_local.hooks import LocalModelOptions
@@ -31,12 +31,15 @@ from t2m_llm_local.model_files import default_model_path
 
 log = logging.getLogger(__name__)
 
-_MODELS: dict[tuple[Any, ...], Any] = {}
+CONTEXT_HINT = "raise the local model's n_ctx option (t2m llm: --set n_ctx=16384; run config: language_model.options.n_ctx)"
+
+_MODELS: dict[tuple[Any, ...], tuple[Any, threading.Lock]] = {}
 _MODELS_LOCK = threading.Lock()
 
 
-def _load_llama(path: Path, n_ctx: int, n_threads: int, n_batch: int) -> Any:
-    """The process-wide llama.cpp model for these settings (loaded on first use)."""
+def _load_llama(path: Path, n_ctx: int, n_threads: int, n_batch: int) -> tuple[Any, threading.Lock]:
+    """The process-wide llama.cpp model for these settings (loaded on first use) and the lock that
+    serialises its use (its KV cache is one shared state)."""
     key = (str(path), n_ctx, n_threads, n_batch)
     with _MODELS_LOCK:
         if key not in _MODELS:
@@ -44,7 +47,7 @@ def _load_llama(path: Path, n_ctx: int, n_threads: int, n_batch: int) -> Any:
 
             start = time.perf_counter()
             try:
-                _MODELS[key] = Llama(
+                llama = Llama(
                     model_path=str(path),
                     n_ctx=n_ctx,
                     n_batch=n_batch,
@@ -58,6 +61,7 @@ def _load_llama(path: Path, n_ctx: int, n_threads: int, n_batch: int) -> Any:
                 raise ModelFileError(
                     f"llama.cpp could not load {path}: {error}", hint="pass a valid GGUF file as model_path"
                 ) from error
+            _MODELS[key] = (llama, threading.Lock())
             log.info("loaded %s in %.2f s", path.name, time.perf_counter() - start)
         return _MODELS[key]
 
@@ -100,9 +104,8 @@ class LocalLanguageModel:
                 )
         threads = options.n_threads or default_threads()
         start = time.perf_counter()
-        self._llama = _load_llama(self.model_path, options.n_ctx, threads, options.n_batch)
+        self._llama, self._lock = _load_llama(self.model_path, options.n_ctx, threads, options.n_batch)
         self.load_time_s = time.perf_counter() - start
-        self._lock = threading.Lock()
         self._grammars: dict[str, Any] = {}
         self.name = f"local:{self.model_path.name}"
 
@@ -157,9 +160,9 @@ class LocalLanguageModel:
     def _check_length(self, prompt: str, max_tokens: int) -> None:
         tokens = self.count_tokens(prompt)
         if tokens + max_tokens > self.options.n_ctx:
-            raise ModelFileError(
+            raise T2MError(
                 f"prompt of {tokens} tokens + {max_tokens} new tokens exceeds the context of {self.options.n_ctx}",
-                hint="raise the local model's n_ctx option (--set llm.options.n_ctx=8192)",
+                hint=CONTEXT_HINT,
             )
 
     # ------------------------------------------------------------------------------------------
@@ -203,9 +206,9 @@ class LocalLanguageModel:
         full = [llama.tokenize((prompt + candidate).encode("utf-8"), add_bos=False, special=False) for candidate in candidates]
         for candidate, tokens in zip(candidates, full, strict=True):
             if len(tokens) + 1 > self.options.n_ctx:
-                raise ModelFileError(
+                raise T2MError(
                     f"scoring prompt for {candidate!r} has {len(tokens)} tokens, more than the context of {self.options.n_ctx}",
-                    hint="raise the local model's n_ctx option",
+                    hint=CONTEXT_HINT,
                 )
         # Shared prefix: tokens common to every full tokenization that end before the candidate.
         first = full[0]

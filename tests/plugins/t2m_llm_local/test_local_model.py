@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from t2m_core.errors import ModelFileError
+from t2m_core.errors import ModelFileError, T2MError
 from t2m_core.language.grammar import goal_grammar
 from t2m_core.language.parsing import parse_goal_answer
 from t2m_core.testing import check_import_light, check_language_model
@@ -82,14 +82,14 @@ def test_conformance_and_single_load_per_process(local_model):
     from t2m_llm_local.llama import LocalLanguageModel
 
     again = LocalLanguageModel(LocalModelOptions(n_ctx=4096))
-    assert again._llama is local_model._llama
+    assert again._llama is local_model._llama and again._lock is local_model._lock
     assert again.load_time_s < 0.5
 
 
 @pytest.mark.llm
 @pytest.mark.slow
 def test_context_overflow_is_a_clear_error(local_model):
-    with pytest.raises(ModelFileError, match="n_ctx"):
+    with pytest.raises(T2MError, match="exceeds the context"):
         local_model.complete("word " * 5000, max_tokens=10)
 
 
