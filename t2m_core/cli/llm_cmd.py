@@ -13,9 +13,13 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
+
+if TYPE_CHECKING:
+    from t2m_core.language.session import LanguageSession
+    from t2m_core.tasks import Task
 
 llm_app = typer.Typer(name="llm", help="Query the language model about a task scene (goal, next skills).", no_args_is_help=True)
 
@@ -32,7 +36,10 @@ ConstrainedOption = Annotated[
 ]
 
 
-def _session(task_id: str, seed: int, llm: str, settings: list[str] | None, transcript: Path | None, constrained: bool):  # noqa: ANN202
+def _session(
+    task_id: str, seed: int, llm: str, settings: list[str] | None, transcript: Path | None, constrained: bool
+) -> tuple[Task, LanguageSession]:
+    """The task and a language session on its scene for ``seed`` (the model built from ``--llm``/``--set``)."""
     from rich.console import Console
 
     from t2m_core.config.resolve import parse_override

@@ -19,7 +19,7 @@ from the scene (:mod:`t2m_core.language.grammar`).
 from __future__ import annotations
 
 import logging
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 from t2m_core.domain.goals import Goal, GoalError, parse_goal, validate_goal
@@ -169,7 +169,8 @@ def with_error_note(prompt: str, answer: str, problem: str) -> str:
     return f"{head}{newline}{note}\n{query}" if newline else f"{note}\n{prompt}"
 
 
-def _grammar_for(model: LanguageModel, constrained: bool, build) -> str | None:  # noqa: ANN001 - a thunk
+def _grammar_for(model: LanguageModel, constrained: bool, build: Callable[[], str]) -> str | None:
+    """The grammar ``build`` makes, when decoding is constrained and the model accepts grammars."""
     return build() if constrained and model.capabilities.grammar else None
 
 

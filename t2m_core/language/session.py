@@ -16,7 +16,7 @@ from t2m_core.domain.goals import Goal
 from t2m_core.domain.literals import LiteralSyntaxError, parse_string_lists
 from t2m_core.domain.predicates import GOAL_PREDICATES, Proposition, canonical_order
 from t2m_core.domain.skills import SKILLS, SkillCall, SkillError, apply_effects, candidate_groundings, precondition_problems
-from t2m_core.language.parsing import Attempt, inst, query_goal, query_next_skills, query_skill_sequences
+from t2m_core.language.parsing import Attempt, GoalQuery, inst, query_goal, query_next_skills, query_skill_sequences
 from t2m_core.language.prompts import K, HistoryStep, PromptBuilder, scoring_request
 from t2m_core.language.scene_description import SceneDescription
 from t2m_core.language.scoring import BETA, dampened_softmax
@@ -128,7 +128,7 @@ class LanguageSession:
         self.constrained = constrained
         self.beta = beta
 
-    def predict_goal(self):  # noqa: ANN201 - GoalQuery
+    def predict_goal(self) -> GoalQuery:
         """The goal query (bounded re-query; ``goal`` is ``None`` when every attempt was invalid)."""
         return query_goal(self.model, self.prompts.goal(self.scene), self.scene.objects, constrained=self.constrained)
 
@@ -148,7 +148,9 @@ class LanguageSession:
         candidates, attempts = query_next_skills(self.model, prompt, self.scene.objects, self.k, constrained=self.constrained)
         return candidates.calls, attempts
 
-    def generate_sequences(self, goal: Goal, executed: Sequence[SkillCall] = ()):  # noqa: ANN201
+    def generate_sequences(
+        self, goal: Goal, executed: Sequence[SkillCall] = ()
+    ) -> tuple[list[tuple[SkillCall, ...]], list[Attempt]]:
         """K whole skill sequences (shooting) continuing ``executed``."""
         prompt = self.prompts.shooting(self.scene, goal, self.history(executed))
         return query_skill_sequences(self.model, prompt, self.scene.objects, self.k, constrained=self.constrained)
