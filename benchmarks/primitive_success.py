@@ -2,7 +2,7 @@
 
     python benchmarks/primitive_success.py --sim mujoco --json OUT [--samples 500]
 
-Scenes come from the tasks (same cases as sim_throughput.py): one reset per seed, the setup skills
+Scenes come from the tasks (same cases as sim_throughput.py): one distinct scene per sample, the setup skills
 (e.g. picking the hook by its handle's tail before a pull) not counted, then one
 heuristic and one uniform execution from that same snapshot.
 """
@@ -29,21 +29,18 @@ def main() -> None:
     from rich.progress import track
 
     sys.path.insert(0, str(Path(__file__).parent))
-    from sim_throughput import CASES, prepare
+    from sim_throughput import CASES, case_scene, distinct_scenes, prepare
 
     from t2m_core.cli.sim_cmd import resolve_simulator
     from t2m_core.domain.primitives import get_primitive
-    from t2m_core.tasks import load_task
-
     sim = resolve_simulator(args.sim)
     report = {}
-    for name, (task_id, setup, (primitive, arguments)) in CASES.items():
-        task = load_task(task_id)
+    for name, (task_id, keep, setup, (primitive, arguments)) in CASES.items():
+        task = case_scene(task_id, keep)
         rng = np.random.default_rng(1)
         spec = get_primitive(primitive)
         counts = {sampler: Counter() for sampler in ("heuristic", "uniform")}
-        for seed in track(range(args.samples), description=f"{name:5s}", transient=True):
-            sim.reset(task, seed=seed)
+        for _reset in track(distinct_scenes(sim, task, args.samples), total=args.samples, description=f"{name:5s}", transient=True):
             if not prepare(sim, setup, rng):
                 continue
             scene = sim.get_state()

@@ -49,7 +49,18 @@ YAW_SPEED = 2.0
 """rad/s of the gripper yaw on straight moves."""
 IK_KEY_PERIOD = 5
 """Ticks between IK keyframes of a straight move."""
-SOFT_GAIN_SCALE = 49.0 / 121.0
+SOFT_POSITION_GAINS = np.array([49.0, 49.0, 121.0])
+"""N/m of the compliant sweep in x, y, z (tableenv.md §3.2 soft gains)."""
+SOFT_VELOCITY_GAINS = np.array([14.0, 14.0, 22.0])
+"""N·s/m."""
+SOFT_ORIENTATION_GAINS = (121.0, 16.0)
+"""N·m/rad and N·m·s/rad of the sweep's orientation task."""
+SOFT_MAX_FORCE = 6.0
+"""N: the most the compliant sweep pushes with, below what slides the 1 kg rack (friction 1.0)."""
+SOFT_POSTURE_SCALE = 0.002
+"""During a sweep the joint servos keep only this fraction of their stiffness (a weak posture
+task); the Cartesian impedance does the work."""
+SOFT_DAMPING_SCALE = 0.05
 """Sweeps lower the arm servos' stiffness by the ratio of the reference's soft and normal gains."""
 
 
@@ -75,6 +86,7 @@ class Executor:
         self.on_tick = on_tick
         self.frame_every = max(1, int(frame_every))
         self._finger_geoms = robot_geoms(world)
+        self._impedance_jacobian = np.zeros((6, world.model.nv))
         self.yaw_offset = 0.0
 
     def begin_primitive(self) -> None:
@@ -202,9 +214,10 @@ class Executor:
                     fraction = (tick - key_ticks[segment]) / (key_ticks[segment + 1] - key_ticks[segment])
                     q_target = key_q[segment] + fraction * (key_q[segment + 1] - key_q[segment])
                 else:
-                    blend = progress * progress * (3.0 - 2.0 * progress)  # smoothstep: no velocity jumps
-                    q_target = q_start + blend * (solution.q - q_start)
+                    q_target = q_start + self._ramp(progress) * (solution.q - q_start)  # smoothstep: no velocity jumps
                 world.set_arm_target(q_target)
+                if gains is not None:
+                    self._apply_impedance(start_position + self._ramp(progress) * (goal - start_position), goal_rotation)
                 self._tick()
 
                 if forbidden and tick % CONTACT_CHECK_PERIOD == 0 and self._collided(watched, forbidden, report):
@@ -235,6 +248,7 @@ class Executor:
         finally:
             if gains is not None:
                 self._restore_gains(gains)
+                world.data.qfrc_applied[world.robot.arm_dof] = 0.0
 
     # --- helpers ----------------------------------------------------------------------------------
 
@@ -290,12 +304,42 @@ class Executor:
             self.on_tick(self.world)
 
     def _soften(self) -> tuple[np.ndarray, np.ndarray]:
+        """Make the joint servos nearly limp for a compliant sweep (see :meth:`_apply_impedance`)."""
         model, actuators = self.world.model, self.world.robot.arm_actuators
         saved = (model.actuator_gainprm[actuators].copy(), model.actuator_biasprm[actuators].copy())
-        model.actuator_gainprm[actuators, 0] *= SOFT_GAIN_SCALE
-        model.actuator_biasprm[actuators, 1] *= SOFT_GAIN_SCALE
-        model.actuator_biasprm[actuators, 2] *= math.sqrt(SOFT_GAIN_SCALE)
+        model.actuator_gainprm[actuators, 0] *= SOFT_POSTURE_SCALE
+        model.actuator_biasprm[actuators, 1] *= SOFT_POSTURE_SCALE
+        model.actuator_biasprm[actuators, 2] *= SOFT_DAMPING_SCALE
         return saved
+
+    @staticmethod
+    def _ramp(progress: float) -> float:
+        return progress * progress * (3.0 - 2.0 * progress)
+
+    def _apply_impedance(self, position_target: np.ndarray, rotation_target: np.ndarray) -> None:
+        """Cartesian impedance of the original's operational-space sweep (tableenv.md §3.2 soft gains):
+        joint torques ``Jᵀ·(K·(x* − x) − D·v)`` held for the next tick. A blocked tool then stalls
+        with a bounded force instead of ploughing through the rack, and the motion ends as
+        velocity-converged."""
+        import mujoco
+
+        world = self.world
+        model, data, robot = world.model, world.data, world.robot
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        jacobian = self._impedance_jacobian
+        mujoco.mj_jacSite(model, data, jacobian[:3], jacobian[3:], robot.ee_site)
+        velocity = jacobian[:, robot.arm_dof] @ data.qvel[robot.arm_dof]
+        position = data.site_xpos[robot.ee_site]
+        rotation = data.site_xmat[robot.ee_site].reshape(3, 3)
+        wrench = np.empty(6)
+        wrench[:3] = SOFT_POSITION_GAINS * (position_target - position) - SOFT_VELOCITY_GAINS * velocity[:3]
+        stiffness, damping = SOFT_ORIENTATION_GAINS
+        wrench[3:] = stiffness * rotation_error(rotation_target, rotation) - damping * velocity[3:]
+        force = np.linalg.norm(wrench[:3])
+        if force > SOFT_MAX_FORCE:  # a blocked sweep presses, it does not shove (the rack weighs 1 kg)
+            wrench[:3] *= SOFT_MAX_FORCE / force
+        data.qfrc_applied[robot.arm_dof] = jacobian[:, robot.arm_dof].T @ wrench
 
     def _restore_gains(self, saved: tuple[np.ndarray, np.ndarray]) -> None:
         model, actuators = self.world.model, self.world.robot.arm_actuators

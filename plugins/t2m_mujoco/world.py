@@ -197,12 +197,16 @@ class World:
         self.model.eq_data[weld, 6:10] = relative_quat
         self.model.eq_data[weld, 10] = 1.0
         data.eq_active[weld] = 1
+        # The original's controller adds the held object to the arm's load model; compensating its
+        # weight here keeps a held hook from sagging onto the table under compliant gains.
+        self.model.body_gravcomp[self.scene.body[name]] = 1.0
         self.held = name
 
     def release(self) -> None:
         """Switch every grasp weld off."""
-        for weld in self.scene.weld.values():
+        for name, weld in self.scene.weld.items():
             self.data.eq_active[weld] = 0
+            self.model.body_gravcomp[self.scene.body[name]] = 0.0
         self.held = None
 
     # --- contacts and distances -------------------------------------------------------------------
@@ -275,8 +279,11 @@ class World:
         # every body, so a restore always yields the same (all-awake) simulation state.
         mujoco.mj_resetData(self.model, self.data)
         mujoco.mj_setState(self.model, self.data, snapshot.physics, self._state_spec)
+        for name in self.scene.weld:
+            self.model.body_gravcomp[self.scene.body[name]] = 0.0
         self.held = snapshot.held
         if snapshot.held:
+            self.model.body_gravcomp[self.scene.body[snapshot.held]] = 1.0
             weld = self.scene.weld[snapshot.held]
             self.model.eq_data[weld, 0:3] = 0.0
             self.model.eq_data[weld, 3:10] = snapshot.weld_pose
