@@ -92,9 +92,7 @@ def goal_cases(model: Any, tasks: list, seed: int, variants: list[str], progress
     return rows
 
 
-def next_cases(
-    model: Any, tasks: list, seed: int, variants: list[str], progress: Progress, limit: int | None, calibrated: bool
-) -> list[dict[str, Any]]:
+def next_cases(model: Any, tasks: list, seed: int, variants: list[str], progress: Progress, limit: int | None) -> list[dict[str, Any]]:
     cases = [(task, length) for task in tasks for length in range(len(task.reference_skeleton))]
     if limit is not None:
         cases = cases[:limit]
@@ -134,9 +132,6 @@ def next_cases(
             "top1": bool(ranked) and ranked[0] == target,
             "top5": target in ranked[:5],
         }
-        if calibrated:
-            ranked = [call for call, _, _ in session.score(task.goal, executed, valid, calibrated=True).ranked()]
-            row["valid_calibrated"] = {"ranking": [str(call) for call in ranked], "top1": bool(ranked) and ranked[0] == target}
         rows.append(row)
         progress.advance(bar)
     return rows
@@ -158,8 +153,6 @@ def summarise(goals: list[dict[str, Any]], nexts: list[dict[str, Any]], variants
         summary["next_top1_valid_set"] = sum(row["valid"]["top1"] for row in nexts) / len(nexts)
         summary["next_top5_valid_set"] = sum(row["valid"]["top5"] for row in nexts) / len(nexts)
         summary["valid_set_mean_size"] = statistics.fmean(row["valid"]["size"] for row in nexts)
-        if "valid_calibrated" in nexts[0]:
-            summary["next_top1_valid_set_calibrated"] = sum(row["valid_calibrated"]["top1"] for row in nexts) / len(nexts)
         summary["next_cases"] = len(nexts)
     summary["goal_cases_per_variant"] = len(goals) // max(len(variants), 1)
     return summary
@@ -175,7 +168,6 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--skip-goals", action="store_true")
     parser.add_argument("--skip-next", action="store_true")
     parser.add_argument("--max-next-cases", type=int, default=None)
-    parser.add_argument("--calibrated", action="store_true", help="also rank valid sets by PMI-calibrated scores")
     parser.add_argument("--transcript", type=Path, default=None, help="record every request (JSONL)")
     parser.add_argument("--json", dest="json_out", type=Path, required=True, help="write the figures here")
     args = parser.parse_args(argv)
@@ -199,7 +191,7 @@ def main(argv: list[str] | None = None) -> int:
         first_scene, _ = describe_task_scene(tasks[0], args.seed)
         figures.update(speed(inner, LanguageSession(inner, first_scene, seed=args.seed)))
         goals = [] if args.skip_goals else goal_cases(model, tasks, args.seed, variants, progress)
-        nexts = [] if args.skip_next else next_cases(model, tasks, args.seed, variants, progress, args.max_next_cases, args.calibrated)
+        nexts = [] if args.skip_next else next_cases(model, tasks, args.seed, variants, progress, args.max_next_cases)
     figures["load_average_1min"] = os.getloadavg()[0]
     figures["wall_s"] = time.perf_counter() - start
     figures["summary"] = summarise(goals, nexts, variants)

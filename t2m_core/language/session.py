@@ -155,21 +155,10 @@ class LanguageSession:
         prompt = self.prompts.shooting(self.scene, goal, self.history(executed))
         return query_skill_sequences(self.model, prompt, self.scene.objects, self.k, constrained=self.constrained)
 
-    def score(
-        self, goal: Goal, executed: Sequence[SkillCall], calls: Sequence[SkillCall], *, calibrated: bool = False
-    ) -> ScoredCandidates:
-        """ℓ and S_llm of each call as the next skill after ``executed``.
-
-        ``calibrated=True`` (an experiment, not the reference method) subtracts each candidate's
-        log-likelihood after a context-free prompt (the primitives line + ``Executed action:``), so a
-        candidate is not preferred merely because its words are frequent (pointwise mutual information).
-        """
+    def score(self, goal: Goal, executed: Sequence[SkillCall], calls: Sequence[SkillCall]) -> ScoredCandidates:
+        """ℓ and S_llm of each call as the next skill after ``executed``."""
         context = self.prompts.scoring_context(self.scene, goal, self.history(executed))
         prompt, continuations = scoring_request(context, [str(call) for call in calls])
         logprobs = self.model.score(prompt, continuations) if calls else []
-        if calibrated and calls:
-            null_prompt, _ = scoring_request(context.split("\n", 1)[0] + "\n", [])
-            priors = self.model.score(null_prompt, continuations)
-            logprobs = [value - prior for value, prior in zip(logprobs, priors, strict=True)]
         finite = [value if math.isfinite(value) else -math.inf for value in logprobs]
         return ScoredCandidates(list(calls), finite, dampened_softmax(finite, self.beta))

@@ -81,14 +81,3 @@ def test_session_scores_with_the_dampened_softmax():
     assert model.prompts[0].endswith("Executed action: pick(hook)\nNew object relationships: "
                                      "['on(rack, table)', 'on(red_box, table)', 'on(blue_box, table)', 'inhand(hook)']\n"
                                      "Executed action:")
-
-
-def test_calibrated_scores_subtract_the_context_free_likelihood():
-    model = LengthScorer()
-    scene = SceneDescription(OBJECTS, RELATIONS, "Put the red box on the rack.")
-    calls = [SkillCall("pick", ("hook",)), SkillCall("pick", ("red_box",))]
-    scored = LanguageSession(model, scene).score(parse_goal("[['on(red_box, rack)']]"), [], calls, calibrated=True)
-    assert scored.logprobs == [0.0, 0.0]  # this double's likelihood ignores the context entirely
-    assert model.prompts[1] == (
-        "Available primitives: ['pick(a)', 'place(a, b)', 'pull(a, hook)', 'push(a, hook, rack)']\nExecuted action:"
-    )
