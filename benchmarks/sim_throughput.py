@@ -34,7 +34,7 @@ CASES = {  # primitive -> (task, objects kept or None, setup skills with a physi
     "pull": ("task3", ("table", "rack", "hook", "red_box", "blue_box"), [("pick", ("hook",), HANDLE_TAIL_GRASP)],
              ("pull", ("blue_box", "hook"))),
     # task1 without the yellow and blue boxes, which the task places in front of the rack to block the push
-    "push": ("task1", ("table", "rack", "hook", "cyan_box"), [("pick", ("hook",), HANDLE_FRONT_GRASP)],
+    "push": ("task1", ("table", "rack", "hook", "cyan_box"), [("pick", ("hook",), HANDLE_CENTRE_GRASP)],
              ("push", ("cyan_box", "hook", "rack"))),
 }
 
