@@ -151,13 +151,43 @@ class InverseKinematics:
 
         The null-space pull shapes the posture during the first ``iterations``; a few final
         iterations without it remove the small task error the damped projection leaks."""
-        q = self._iterate(np.array(seed, dtype=np.float64), position, rotation, null_target, iterations, 1e-6)
+        result = self._solve_from(np.array(seed, dtype=np.float64), position, rotation, null_target, iterations)
+        if result.reachable:
+            return result
+        # DLS turns the wrist the short way round, which runs joint 7 into its limit for yaws near
+        # ±π although the other way round is within the limits: retry from the facing posture with
+        # joint 7 already turned to the yaw, both ways round.
+        for posture in self._wrist_seeds(null_target, rotation):
+            candidate = self._solve_from(posture, position, rotation, null_target, iterations)
+            if candidate.reachable:
+                return candidate
+        return result
+
+    def _solve_from(
+        self, seed: np.ndarray, position: np.ndarray, rotation: np.ndarray, null_target: np.ndarray, iterations: int
+    ) -> IKResult:
+        q = self._iterate(seed, position, rotation, null_target, iterations, 1e-6)
         q = self._iterate(q, position, rotation, None, IK_POLISH_ITERATIONS, 1e-7)
         reached, reached_rotation = self.forward(q)
         position_error = float(np.linalg.norm(position - reached))
         orientation_error = float(np.linalg.norm(rotation_error(rotation, reached_rotation)))
         within = bool(np.all(q > self._low + 1e-6) and np.all(q < self._high - 1e-6))
         return IKResult(q, position_error, orientation_error, within)
+
+    def _wrist_seeds(self, null_target: np.ndarray, rotation: np.ndarray) -> list[np.ndarray]:
+        """``(7,)`` seeds: ``null_target`` with joint 7 at each in-limit angle giving the EE yaw of
+        ``rotation`` (top-down, the yaw is q1 − q7 relative to home when the other joints are at home)."""
+        relative = rotation @ self.home_rotation.T
+        yaw = math.atan2(relative[1, 0], relative[0, 0])
+        base = null_target[0] - yaw + Q_HOME[6]
+        seeds = []
+        for turns in (-1, 0, 1):
+            wrist = base + 2.0 * math.pi * turns
+            if self._low[6] < wrist < self._high[6]:
+                seed = np.array(null_target, dtype=np.float64)
+                seed[6] = wrist
+                seeds.append(seed)
+        return seeds
 
 
 def null_target_facing(position: np.ndarray) -> np.ndarray:

@@ -60,8 +60,12 @@ SOFT_MAX_FORCE = 6.0
 SOFT_POSTURE_SCALE = 0.002
 """During a sweep the joint servos keep only this fraction of their stiffness (a weak posture
 task); the Cartesian impedance does the work."""
-SOFT_DAMPING_SCALE = 0.05
-"""Sweeps lower the arm servos' stiffness by the ratio of the reference's soft and normal gains."""
+SOFT_DAMPING_SCALE = 0.01
+"""Fraction of the joint servos' damping kept during a sweep: enough to keep the limp posture task
+stable, small next to the operational-space damping (a larger one makes the EE crawl behind its
+target and a sweep run for hundreds of ticks)."""
+OPERATIONAL_INERTIA_REGULARISATION = 1e-3
+"""Added to J·M⁻¹·Jᵀ (1/kg) before inverting it, bounding Λ near singular postures."""
 
 
 @dataclass
@@ -87,6 +91,7 @@ class Executor:
         self.frame_every = max(1, int(frame_every))
         self._finger_geoms = robot_geoms(world)
         self._impedance_jacobian = np.zeros((6, world.model.nv))
+        self._mass_matrix = np.zeros((world.model.nv, world.model.nv))
         self.yaw_offset = 0.0
 
     def begin_primitive(self) -> None:
@@ -317,10 +322,12 @@ class Executor:
         return progress * progress * (3.0 - 2.0 * progress)
 
     def _apply_impedance(self, position_target: np.ndarray, rotation_target: np.ndarray) -> None:
-        """Cartesian impedance of the original's operational-space sweep (tableenv.md §3.2 soft gains):
-        joint torques ``Jᵀ·(K·(x* − x) − D·v)`` held for the next tick. A blocked tool then stalls
-        with a bounded force instead of ploughing through the rack, and the motion ends as
-        velocity-converged."""
+        """Operational-space impedance of the original's sweep (tableenv.md §3.2 soft gains): joint
+        torques ``Jᵀ·Λ·(K·(x* − x) − D·v)`` held for the next tick, with ``Λ = (J·M⁻¹·Jᵀ)⁻¹`` the
+        EE's operational-space inertia, so the EE moves like a unit mass on the reference's springs
+        (critically damped at ω = 7 rad/s) instead of dragging the arm's inertia. The force is
+        bounded: a blocked tool presses and stalls, ending the motion as velocity-converged,
+        instead of ploughing through the rack."""
         import mujoco
 
         world = self.world
@@ -329,17 +336,32 @@ class Executor:
         mujoco.mj_comPos(model, data)
         jacobian = self._impedance_jacobian
         mujoco.mj_jacSite(model, data, jacobian[:3], jacobian[3:], robot.ee_site)
-        velocity = jacobian[:, robot.arm_dof] @ data.qvel[robot.arm_dof]
+        arm_jacobian = jacobian[:, robot.arm_dof]
+        velocity = arm_jacobian @ data.qvel[robot.arm_dof]
         position = data.site_xpos[robot.ee_site]
         rotation = data.site_xmat[robot.ee_site].reshape(3, 3)
-        wrench = np.empty(6)
-        wrench[:3] = SOFT_POSITION_GAINS * (position_target - position) - SOFT_VELOCITY_GAINS * velocity[:3]
+        acceleration = np.empty(6)
+        acceleration[:3] = SOFT_POSITION_GAINS * (position_target - position) - SOFT_VELOCITY_GAINS * velocity[:3]
         stiffness, damping = SOFT_ORIENTATION_GAINS
-        wrench[3:] = stiffness * rotation_error(rotation_target, rotation) - damping * velocity[3:]
+        acceleration[3:] = stiffness * rotation_error(rotation_target, rotation) - damping * velocity[3:]
+        wrench = self._operational_inertia(arm_jacobian) @ acceleration
         force = np.linalg.norm(wrench[:3])
         if force > SOFT_MAX_FORCE:  # a blocked sweep presses, it does not shove (the rack weighs 1 kg)
             wrench[:3] *= SOFT_MAX_FORCE / force
-        data.qfrc_applied[robot.arm_dof] = jacobian[:, robot.arm_dof].T @ wrench
+        data.qfrc_applied[robot.arm_dof] = arm_jacobian.T @ wrench
+
+    def _operational_inertia(self, arm_jacobian: np.ndarray) -> np.ndarray:
+        """``(6, 6)`` Λ = (J·M⁻¹·Jᵀ)⁻¹ of the EE from the arm's joint-space inertia (incl. armature);
+        slightly regularised so it stays bounded near singularities."""
+        import mujoco
+
+        world = self.world
+        full = self._mass_matrix
+        mujoco.mj_fullM(world.model, world.data, full)  # M of the last physics step
+        arm = world.robot.arm_dof
+        arm_inertia = full[np.ix_(arm, arm)]
+        inverse_mass = arm_jacobian @ np.linalg.solve(arm_inertia, arm_jacobian.T)
+        return np.linalg.inv(inverse_mass + OPERATIONAL_INERTIA_REGULARISATION * np.eye(6))
 
     def _restore_gains(self, saved: tuple[np.ndarray, np.ndarray]) -> None:
         model, actuators = self.world.model, self.world.robot.arm_actuators
