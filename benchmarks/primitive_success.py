@@ -1,10 +1,13 @@
 """Success rate of each primitive under the heuristic sampler and under uniform actions.
 
-    python benchmarks/primitive_success.py --sim mujoco --json OUT [--samples 500]
+    python benchmarks/primitive_success.py --sim mujoco --json OUT [--samples 500] [--only pull,push]
+        [--scenes task|evaluation]
 
 Scenes come from the tasks (same cases as sim_throughput.py): one distinct scene per sample, the setup skills
 (e.g. picking the hook by its handle's tail before a pull) not counted, then one
-heuristic and one uniform execution from that same snapshot.
+heuristic and one uniform execution from that same snapshot. ``--scenes evaluation`` measures the
+tableenv.md §12.5 evaluation scenes instead (feasible instances: ``free``, ``nonblocking``), where
+they differ from the task scenes (Pull).
 """
 
 from __future__ import annotations
@@ -21,6 +24,8 @@ def main() -> None:
     parser.add_argument("--sim", default="mujoco")
     parser.add_argument("--json", dest="json_out", required=True)
     parser.add_argument("--samples", type=int, default=500)
+    parser.add_argument("--only", default="", help="comma-separated primitives (default: all)")
+    parser.add_argument("--scenes", choices=("task", "evaluation"), default="task")
     args = parser.parse_args()
 
     import sys
@@ -29,14 +34,18 @@ def main() -> None:
     from rich.progress import track
 
     sys.path.insert(0, str(Path(__file__).parent))
-    from sim_throughput import CASES, case_scene, distinct_scenes, prepare
+    from sim_throughput import CASES, EVALUATION_CASES, case_scene, distinct_scenes, evaluation_scene, prepare
 
     from t2m_core.cli.sim_cmd import resolve_simulator
     from t2m_core.domain.primitives import get_primitive
     sim = resolve_simulator(args.sim)
     report = {}
-    for name, (task_id, keep, setup, (primitive, arguments)) in CASES.items():
-        task = case_scene(task_id, keep)
+    only = set(filter(None, args.only.split(",")))
+    cases = EVALUATION_CASES if args.scenes == "evaluation" else CASES
+    for name, (scene_a, scene_b, setup, (primitive, arguments)) in cases.items():
+        if only and name not in only:
+            continue
+        task = evaluation_scene(scene_a, scene_b) if args.scenes == "evaluation" else case_scene(scene_a, scene_b)
         rng = np.random.default_rng(1)
         spec = get_primitive(primitive)
         counts = {sampler: Counter() for sampler in ("heuristic", "uniform")}
@@ -56,7 +65,7 @@ def main() -> None:
             report[f"{name}/{sampler}"] = {"samples": samples, "success_rate": rate, "outcomes": dict(counter)}
             print(f"{name:5s} {sampler:9s} {rate:6.1%} of {samples}  {dict(counter)}", flush=True)
     with open(args.json_out, "w") as stream:
-        json.dump({"simulator": args.sim, "results": report}, stream, indent=2)
+        json.dump({"simulator": args.sim, "scenes": args.scenes, "results": report}, stream, indent=2)
 
 
 if __name__ == "__main__":

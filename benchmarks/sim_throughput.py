@@ -39,6 +39,31 @@ CASES = {  # primitive -> (task, objects kept or None, setup skills with a physi
 }
 
 
+PULL_EVALUATION_STATE = (
+    "free(hook)", "free(blue_box)", "aligned(rack)", "poslimit(rack)", "inworkspace(rack)", "inworkspace(hook)",
+    "beyondworkspace(blue_box)", "nonblocking(blue_box, rack)",
+    "on(rack, table)", "on(hook, table)", "on(blue_box, table)",
+)
+"""The tableenv.md §12.5 Pull evaluation scene: the box beyond the workspace and not blocked by the
+rack, the hook free in the workspace. (The Push case above already is its §12.5 scene: task1's
+propositions about the cyan box, which is in the operational zone, in front of the rack and
+nonblocking.)"""
+
+EVALUATION_CASES = {
+    "pull": (("table", "rack", "hook", "blue_box"), PULL_EVALUATION_STATE, CASES["pull"][2], CASES["pull"][3]),
+}
+
+
+def evaluation_scene(objects: tuple[str, ...], propositions: tuple[str, ...]):
+    """A single-skill scene with the given objects and initial state (tableenv.md §12.5)."""
+    from types import SimpleNamespace
+
+    from t2m_core.domain.predicates import Proposition
+
+    state = tuple(Proposition.parse(text) for text in propositions)
+    return SimpleNamespace(id=f"eval[{','.join(objects)}]", objects=objects, initial_state=state)
+
+
 def case_scene(task_id: str, keep: tuple[str, ...] | None):
     """The task, or the task restricted to the objects ``keep`` (propositions about the others dropped)."""
     from types import SimpleNamespace
