@@ -61,3 +61,27 @@ def test_ik_reports_out_of_reach(scene):
     ik = InverseKinematics(scene.model, scene.robot)
     target = np.array([1.3, 0.0, 0.4])
     assert not ik.solve(target, ik.target_rotation(0.0), Q_HOME, null_target_facing(target)).reachable
+
+
+@pytest.mark.parametrize("position,yaw", [((0.65, -0.1, 0.4), -2.66), ((0.65, -0.1, 0.4), 2.8), ((0.5, 0.4, 0.4), 2.9)])
+def test_ik_turns_the_wrist_the_long_way_for_yaws_near_half_turn(scene, position, yaw):
+    """From the home seed DLS turns joint 7 the short way into its limit; the solver must retry
+    with the wrist turned the other way (these yaws are within joint 7's ±2.9 rad)."""
+    ik = InverseKinematics(scene.model, scene.robot)
+    target = np.array(position)
+    result = ik.solve(target, ik.target_rotation(yaw), Q_HOME, null_target_facing(target))
+    assert result.reachable, result
+    reached, rotation = ik.forward(result.q)
+    np.testing.assert_allclose(reached, target, atol=1e-4)
+    np.testing.assert_allclose(rotation, ik.target_rotation(yaw), atol=1e-3)
+
+
+def test_reach_at_lift_height_is_the_stretched_arm_not_the_solver(scene):
+    """0.73 m is reachable top-down at z = 0.40; just beyond it the best solution has the elbow
+    (joint 4) straight (≈ −0.47 rad with the Panda's link offsets), far from its −0.07 rad limit."""
+    ik = InverseKinematics(scene.model, scene.robot)
+    near, far = np.array([0.73, 0.0, 0.4]), np.array([0.75, 0.0, 0.4])
+    assert ik.solve(near, ik.target_rotation(0.0), Q_HOME, null_target_facing(near)).reachable
+    beyond = ik.solve(far, ik.target_rotation(0.0), Q_HOME, null_target_facing(far), iterations=400)
+    assert not beyond.reachable
+    assert -0.7 < beyond.q[3] < -0.3

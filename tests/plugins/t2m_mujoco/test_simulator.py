@@ -129,3 +129,22 @@ def test_record_video_returns_frames():
         assert result.frames[0].shape == (48, 64, 3) and result.frames[0].dtype == np.uint8
     finally:
         recorder.close()
+
+
+def test_free_compliant_sweep_converges_soon_after_its_ramp(sim):
+    """The operational-space sweep (soft gains, unit-mass EE) tracks a 0.2 m line and converges
+    within about a second of the 30-tick ramp; a joint-inertia-weighted impedance crawled for
+    hundreds of ticks."""
+    from t2m_core.domain.primitives import MotionKind, MotionStep
+
+    sim.reset(load_task("task0"), seed=0)
+    world, executor = sim.world, sim.executor
+    executor.begin_primitive()
+    assert executor.run(MotionStep(MotionKind.MOVE, "start", np.array([0.45, 0.0, 0.25]), 0.0)).failure is None
+    goal = np.array([0.60, 0.12, 0.25])
+    start_ticks = world.ticks
+    report = executor.run(MotionStep(MotionKind.SWEEP, "sweep", goal, 0.0, soft=True))
+    assert report.failure is None
+    assert world.ticks - start_ticks < 90
+    position, _ = world.ee_pose()
+    assert np.linalg.norm(position - goal) < 0.01
