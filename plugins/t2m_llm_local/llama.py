@@ -13,6 +13,7 @@ the same file and context settings.
 
 from __future__ import annotations
 
+import atexit
 import logging
 import os
 import threading
@@ -35,6 +36,16 @@ CONTEXT_HINT = "raise the local model's n_ctx option (t2m llm: --set n_ctx=16384
 
 _MODELS: dict[tuple[Any, ...], tuple[Any, threading.Lock]] = {}
 _MODELS_LOCK = threading.Lock()
+
+
+@atexit.register
+def _close_models() -> None:
+    """Free the models before interpreter shutdown: llama-cpp-python's ``__del__`` fails once its
+    module globals are gone, printing an "Exception ignored" traceback at every exit."""
+    with _MODELS_LOCK:
+        for llama, _ in _MODELS.values():
+            llama.close()
+        _MODELS.clear()
 
 
 def _load_llama(path: Path, n_ctx: int, n_threads: int, n_threads_batch: int, n_batch: int) -> tuple[Any, threading.Lock]:
