@@ -57,6 +57,9 @@ SOFT_ORIENTATION_GAINS = (121.0, 16.0)
 """N·m/rad and N·m·s/rad of the sweep's orientation task."""
 SOFT_MAX_FORCE = 6.0
 """N: the most the compliant sweep pushes with, below what slides the 1 kg rack (friction 1.0)."""
+SOFT_MAX_TORQUE = 10.0
+"""N·m: bound on the sweep's orientation moment (normal sweeps stay below ~3.5 N·m; near a singular
+posture the operational-space inertia, and with it the moment, would grow without bound)."""
 SOFT_POSTURE_SCALE = 0.002
 """During a sweep the joint servos keep only this fraction of their stiffness (a weak posture
 task); the Cartesian impedance does the work."""
@@ -64,8 +67,8 @@ SOFT_DAMPING_SCALE = 0.01
 """Fraction of the joint servos' damping kept during a sweep: enough to keep the limp posture task
 stable, small next to the operational-space damping (a larger one makes the EE crawl behind its
 target and a sweep run for hundreds of ticks)."""
-OPERATIONAL_INERTIA_REGULARISATION = 1e-3
-"""Added to J·M⁻¹·Jᵀ (1/kg) before inverting it, bounding Λ near singular postures."""
+OPERATIONAL_INERTIA_REGULARISATION = 1e-2
+"""Added to J·M⁻¹·Jᵀ (1/kg, 1/(kg·m²)) before inverting it, bounding Λ (≤ 100) near singular postures."""
 
 
 @dataclass
@@ -348,6 +351,9 @@ class Executor:
         force = np.linalg.norm(wrench[:3])
         if force > SOFT_MAX_FORCE:  # a blocked sweep presses, it does not shove (the rack weighs 1 kg)
             wrench[:3] *= SOFT_MAX_FORCE / force
+        torque = np.linalg.norm(wrench[3:])
+        if torque > SOFT_MAX_TORQUE:  # Λ grows without bound near a singular posture
+            wrench[3:] *= SOFT_MAX_TORQUE / torque
         data.qfrc_applied[robot.arm_dof] = arm_jacobian.T @ wrench
 
     def _operational_inertia(self, arm_jacobian: np.ndarray) -> np.ndarray:
