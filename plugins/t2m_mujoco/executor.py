@@ -67,8 +67,8 @@ SOFT_DAMPING_SCALE = 0.01
 """Fraction of the joint servos' damping kept during a sweep: enough to keep the limp posture task
 stable, small next to the operational-space damping (a larger one makes the EE crawl behind its
 target and a sweep run for hundreds of ticks)."""
-OPERATIONAL_INERTIA_REGULARISATION = 1e-2
-"""Added to J·M⁻¹·Jᵀ (1/kg, 1/(kg·m²)) before inverting it, bounding Λ (≤ 100) near singular postures."""
+OPERATIONAL_INERTIA_REGULARISATION = 1e-3
+"""Added to J·M⁻¹·Jᵀ (1/kg, 1/(kg·m²)) before inverting it, bounding Λ (≤ 1000) near singular postures."""
 
 
 @dataclass
