@@ -10,16 +10,16 @@ fills the OS file cache and Python's bytecode cache).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 import shutil
 import statistics
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
+
+from t2m_core.atomic_files import write_json_atomic
 
 COMMANDS: dict[str, list[str]] = {"t2m --help": ["--help"], "t2m list-plugins": ["list-plugins"]}
 GOAL_S = 1.0
@@ -42,13 +42,6 @@ def wall_times(command: list[str], runs: int) -> list[float]:
     return times
 
 
-def write_json_atomically(path: Path, data: object) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.NamedTemporaryFile("w", dir=path.parent, suffix=".tmp", delete=False, encoding="utf-8") as handle:
-        json.dump(data, handle, indent=2)
-    os.replace(handle.name, path)
-
-
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=10, help="timed runs per command (default 10)")
@@ -66,7 +59,7 @@ def main() -> int:
             f"{label:<18} median {median:.3f} s  (min {min(times):.3f}, max {max(times):.3f}, {len(times)} runs)  {verdict}"
         )
     if arguments.json_out:
-        write_json_atomically(
+        write_json_atomic(
             arguments.json_out,
             {
                 "benchmark": "cli_startup",

@@ -35,7 +35,7 @@ from rich.console import Console
 from rich.progress import Progress
 from rich.table import Table
 
-from t2m_core.cli.sim_cmd import write_json_atomic
+from t2m_core.atomic_files import write_json_atomic
 from t2m_core.domain.goals import parse_goal
 from t2m_core.language.parsing import query_goal, query_next_skills
 from t2m_core.language.prompts import K

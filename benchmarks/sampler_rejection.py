@@ -19,7 +19,7 @@ from rich.console import Console
 from rich.progress import Progress
 from rich.table import Table
 
-from t2m_core.cli.sim_cmd import write_json_atomic
+from t2m_core.atomic_files import write_json_atomic
 from t2m_core.domain.sampling import SamplingError, clear_cache, sample_task
 from t2m_core.tasks import list_tasks
 

@@ -18,6 +18,7 @@ import os
 import tempfile
 from pathlib import Path
 
+from t2m_core.atomic_files import write_json_atomic
 from t2m_core.errors import ModelFileError
 from t2m_core.settings import cache_dir
 
@@ -90,10 +91,9 @@ def _is_verified(model_path: Path) -> bool:
 
 def _write_marker(model_path: Path) -> None:
     stat = model_path.stat()
-    marker = _marker_path(model_path)
-    temporary = marker.with_name(marker.name + ".tmp")
-    temporary.write_text(json.dumps({"sha256": DEFAULT_MODEL_SHA256, "size": stat.st_size, "mtime_ns": stat.st_mtime_ns}))
-    os.replace(temporary, marker)
+    write_json_atomic(
+        _marker_path(model_path), {"sha256": DEFAULT_MODEL_SHA256, "size": stat.st_size, "mtime_ns": stat.st_mtime_ns}
+    )
 
 
 def assemble(destination: Path) -> None:

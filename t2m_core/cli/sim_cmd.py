@@ -11,8 +11,6 @@ reset of the same seed, recording ``video.mp4``, and ``result.json`` is written.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -21,6 +19,8 @@ from typing import Annotated, Any
 
 import numpy as np
 import typer
+
+from t2m_core.atomic_files import write_json_atomic
 
 TRIES_PER_SKILL = 25
 """Executions of one skill from a new start state before the search backs up."""
@@ -189,20 +189,6 @@ def run_demo(
         "executions": search.executions,
         "seconds": round(time.perf_counter() - started, 2),
     }
-
-
-def write_json_atomic(path: Path, content: Any) -> None:
-    """Write ``content`` as JSON to ``path`` through a temporary file in the same directory."""
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}-", dir=path.parent)
-    try:
-        with os.fdopen(handle, "w") as stream:
-            json.dump(content, stream, indent=2)
-            stream.write("\n")
-        os.chmod(temporary, 0o644)
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
 
 
 def demo(

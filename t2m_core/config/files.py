@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import yaml
 
+from t2m_core.atomic_files import write_text_atomic
 from t2m_core.config.models import RunConfig
 from t2m_core.errors import ConfigError
 
@@ -47,13 +46,4 @@ def config_to_yaml(config: RunConfig) -> str:
 
 def write_config(config: RunConfig, path: Path) -> None:
     """Write ``config`` as YAML to ``path`` atomically: a crash never leaves a partial file there."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(descriptor, "w", encoding="utf-8") as handle:
-            handle.write(config_to_yaml(config))
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+    write_text_atomic(path, config_to_yaml(config))

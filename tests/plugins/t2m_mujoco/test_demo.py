@@ -1,4 +1,3 @@
-import json
 
 import numpy as np
 import pytest
@@ -8,7 +7,7 @@ pytest.importorskip("mujoco")
 from typer.testing import CliRunner  # noqa: E402
 
 from t2m_core.cli.main import app  # noqa: E402
-from t2m_core.cli.sim_cmd import run_demo, search_skeleton, write_json_atomic  # noqa: E402
+from t2m_core.cli.sim_cmd import run_demo, search_skeleton  # noqa: E402
 from t2m_core.tasks import load_task  # noqa: E402
 from t2m_mujoco.options import MujocoOptions  # noqa: E402
 from t2m_mujoco.simulator import MujocoSimulator  # noqa: E402
@@ -33,16 +32,6 @@ def test_search_reports_exhaustion():
 
     search = search_skeleton(sim, [SkillCall("pick", ("blue_box",))], np.random.default_rng(0), tries_per_skill=4)
     assert not search.found and search.tries == [4] and search.failures == {"not_in_workspace": 4}
-
-
-def test_write_json_atomic(tmp_path):
-    path = tmp_path / "result.json"
-    write_json_atomic(path, {"success": True})
-    assert json.loads(path.read_text()) == {"success": True}
-    with pytest.raises(TypeError):
-        write_json_atomic(path, {"bad": object()})
-    assert json.loads(path.read_text()) == {"success": True}  # the good file survived
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["result.json"]
 
 
 def test_cli_lists_demo():
