@@ -7,11 +7,11 @@ Usage: python benchmarks/domain_speed.py [--json OUT]
 from __future__ import annotations
 
 import argparse
-import json
 import timeit
 
 import numpy as np
 
+from t2m_core.atomic_files import write_json_atomic
 from t2m_core.domain.geometry import yaw_to_quat
 from t2m_core.domain.goals import goal_satisfied, parse_goal
 from t2m_core.domain.observation import argument_first_order, decode_observation, encode_observation, skill_state
@@ -58,8 +58,7 @@ def main() -> None:
     for name, value in figures.items():
         print(f"{name:40s} {value:8.3f}")
     if args.json:
-        with open(args.json, "w", encoding="utf-8") as out:
-            json.dump(figures, out, indent=2)
+        write_json_atomic(args.json, figures)
 
 
 if __name__ == "__main__":

@@ -13,10 +13,11 @@ they differ from the task scenes (Pull).
 from __future__ import annotations
 
 import argparse
-import json
 from collections import Counter
 
 import numpy as np
+
+from t2m_core.atomic_files import write_json_atomic
 
 
 def main() -> None:
@@ -64,8 +65,7 @@ def main() -> None:
             rate = counter["success"] / max(samples, 1)
             report[f"{name}/{sampler}"] = {"samples": samples, "success_rate": rate, "outcomes": dict(counter)}
             print(f"{name:5s} {sampler:9s} {rate:6.1%} of {samples}  {dict(counter)}", flush=True)
-    with open(args.json_out, "w") as stream:
-        json.dump({"simulator": args.sim, "scenes": args.scenes, "results": report}, stream, indent=2)
+    write_json_atomic(args.json_out, {"simulator": args.sim, "scenes": args.scenes, "results": report})
 
 
 if __name__ == "__main__":

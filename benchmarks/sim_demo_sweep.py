@@ -8,6 +8,8 @@ from __future__ import annotations
 import argparse
 import json
 
+from t2m_core.atomic_files import write_json_atomic
+
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -32,8 +34,7 @@ def main() -> None:
                   f"tries={[s['tries'] for s in result['steps']]} {result['seconds']} s", flush=True)
         report[task_id] = {"reached": sum(r["success"] for r in runs), "runs": runs}
         print(f"{task_id}: {report[task_id]['reached']}/{args.seeds}", flush=True)
-    with open(args.json_out, "w") as stream:
-        json.dump(report, stream, indent=2, default=str)
+    write_json_atomic(args.json_out, json.loads(json.dumps(report, default=str)))
 
 
 if __name__ == "__main__":

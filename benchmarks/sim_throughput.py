@@ -10,10 +10,11 @@ pull, push: the object or hook picked first, not timed) and times one execution 
 from __future__ import annotations
 
 import argparse
-import json
 import time
 
 import numpy as np
+
+from t2m_core.atomic_files import write_json_atomic
 
 HANDLE_TAIL_GRASP = (-0.1, -0.09, 0.0, 0.0)
 """Physical Pick action on the hook for a Pull: the handle 0.1 m behind the hook's centre, yaw 0. A
@@ -154,8 +155,7 @@ def main() -> None:
         print(f"{name:5s} {results[name]['executions_per_second']:6.1f} exec/s  "
               f"{results[name]['mean_ticks']:6.0f} ticks  ratio to raw mj_step {results[name]['ratio_to_raw_mj_step']:.2f}  "
               f"(n={samples})")
-    with open(args.json_out, "w") as stream:
-        json.dump({"simulator": args.sim, "primitives": results}, stream, indent=2)
+    write_json_atomic(args.json_out, {"simulator": args.sim, "primitives": results})
 
 
 if __name__ == "__main__":
