@@ -285,13 +285,3 @@ class TaskPlanner(Protocol):
         """Search for a skill sequence whose predicted final state satisfies the predicted goal."""
         ...
 
-
-COMPONENT_PROTOCOLS: dict[str, type] = {
-    "simulator": Simulator,
-    "skill": Skill,
-    "feasibility_planner": FeasibilityPlanner,
-    "language_model": LanguageModel,
-    "scene_parser": SceneParser,
-    "task_planner": TaskPlanner,
-}
-"""Component kind -> protocol; the kinds are the plugin registry's namespaces."""
