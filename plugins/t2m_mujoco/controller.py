@@ -36,6 +36,19 @@ IK_ORIENTATION_TOLERANCE = 0.02
 """Radians."""
 JOINT_LIMIT_MARGIN = 0.02
 """Radians kept from the joint limits: a target beyond them is a control failure (§3.2 Abort)."""
+SOFT_POSITION_GAINS = np.array([49.0, 49.0, 121.0])
+"""N/m of the compliant sweep in x, y, z (tableenv.md §3.2 soft gains)."""
+SOFT_VELOCITY_GAINS = np.array([14.0, 14.0, 22.0])
+"""N·s/m."""
+SOFT_ORIENTATION_GAINS = (121.0, 16.0)
+"""N·m/rad and N·m·s/rad of the sweep's orientation task."""
+SOFT_MAX_FORCE = 6.0
+"""N: the most the compliant sweep pushes with, below what slides the 1 kg rack (friction 1.0)."""
+SOFT_MAX_TORQUE = 10.0
+"""N·m: bound on the sweep's orientation moment (normal sweeps stay below ~3.5 N·m; near a singular
+posture the operational-space inertia, and with it the moment, would grow without bound)."""
+OPERATIONAL_INERTIA_REGULARISATION = 1e-3
+"""Added to J·M⁻¹·Jᵀ (1/kg, 1/(kg·m²)) before inverting it, bounding Λ (≤ 1000) near singular postures."""
 
 
 def rotation_z(yaw: float) -> np.ndarray:
@@ -195,3 +208,69 @@ def null_target_facing(position: np.ndarray) -> np.ndarray:
     target = Q_HOME.copy()
     target[0] = math.atan2(position[1], position[0])
     return target
+
+
+def index_slice(indices: np.ndarray) -> slice | np.ndarray:
+    """``indices`` as a slice when they are consecutive (views instead of copies), else unchanged."""
+    indices = np.asarray(indices)
+    if indices.size and np.array_equal(indices, np.arange(indices[0], indices[0] + indices.size)):
+        return slice(int(indices[0]), int(indices[0]) + indices.size)
+    return indices
+
+
+class SweepImpedance:
+    """Operational-space impedance of the original's sweep (tableenv.md §3.2 soft gains).
+
+    :meth:`apply` writes joint torques ``Jᵀ·Λ·(K·(x* − x) − D·v)`` into ``qfrc_applied``, held for the
+    next tick, with ``Λ = (J·M⁻¹·Jᵀ)⁻¹`` the EE's operational-space inertia, so the EE moves like a
+    unit mass on the reference's springs (critically damped at ω = 7 rad/s) instead of dragging the
+    arm's inertia. ``M⁻¹·Jᵀ`` comes from ``mj_solveM`` on the factor of M (armature included) that the
+    last physics step computed, and ``Λ·a`` from one 6×6 solve: no dense inverse per tick. The force
+    is bounded: a blocked tool presses and stalls, ending the motion, instead of ploughing through
+    the rack.
+
+    Args:
+        model, data: the simulated ``MjModel`` / ``MjData``.
+        robot: the robot's indices.
+    """
+
+    def __init__(self, model, data, robot: RobotIndices) -> None:
+        import mujoco
+
+        self._mujoco = mujoco
+        self.model, self.data = model, data
+        self._site = robot.ee_site
+        self._arm = index_slice(robot.arm_dof)
+        self._jacobian = np.zeros((6, model.nv))  # rows: linear (3), angular (3)
+        self._inverse_mass_jacobian = np.zeros((6, model.nv))  # rows of (M⁻¹·Jᵀ)ᵀ
+        self._regularisation = OPERATIONAL_INERTIA_REGULARISATION * np.eye(6)
+        self._acceleration = np.empty(6)
+
+    def apply(self, position_target: np.ndarray, rotation_target: np.ndarray) -> None:
+        """Set the arm's applied torques toward ``position_target`` (3,) m and ``rotation_target`` (3, 3)."""
+        mujoco, model, data, site = self._mujoco, self.model, self.data, self._site
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        jacobian = self._jacobian
+        mujoco.mj_jacSite(model, data, jacobian[:3], jacobian[3:], site)
+        arm_jacobian = jacobian[:, self._arm]
+        velocity = arm_jacobian @ data.qvel[self._arm]
+        acceleration = self._acceleration
+        acceleration[:3] = SOFT_POSITION_GAINS * (position_target - data.site_xpos[site]) - SOFT_VELOCITY_GAINS * velocity[:3]
+        stiffness, damping = SOFT_ORIENTATION_GAINS
+        rotation = data.site_xmat[site].reshape(3, 3)
+        acceleration[3:] = stiffness * rotation_error(rotation_target, rotation) - damping * velocity[3:]
+        mujoco.mj_solveM(model, data, self._inverse_mass_jacobian, jacobian)
+        # Λ·a = (J·M⁻¹·Jᵀ + εI)⁻¹·a; the regularisation bounds Λ near singular postures
+        wrench = np.linalg.solve(jacobian @ self._inverse_mass_jacobian.T + self._regularisation, acceleration)
+        force = math.sqrt(wrench[0] * wrench[0] + wrench[1] * wrench[1] + wrench[2] * wrench[2])
+        if force > SOFT_MAX_FORCE:  # a blocked sweep presses, it does not shove (the rack weighs 1 kg)
+            wrench[:3] *= SOFT_MAX_FORCE / force
+        torque = math.sqrt(wrench[3] * wrench[3] + wrench[4] * wrench[4] + wrench[5] * wrench[5])
+        if torque > SOFT_MAX_TORQUE:  # Λ grows without bound near a singular posture
+            wrench[3:] *= SOFT_MAX_TORQUE / torque
+        data.qfrc_applied[self._arm] = arm_jacobian.T @ wrench
+
+    def release(self) -> None:
+        """Stop applying torques."""
+        self.data.qfrc_applied[self._arm] = 0.0

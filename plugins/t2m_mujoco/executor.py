@@ -21,7 +21,7 @@ from t2m_core.domain.objects import ObjectKind, object_spec
 from t2m_core.domain.primitives import MotionKind, MotionStep
 from t2m_core.protocols import Contact
 from t2m_mujoco import grasp
-from t2m_mujoco.controller import TICKS_PER_SECOND, null_target_facing, rotation_error
+from t2m_mujoco.controller import TICKS_PER_SECOND, SweepImpedance, null_target_facing
 from t2m_mujoco.robot_model import FINGER_OPEN
 from t2m_mujoco.world import World, robot_geoms
 
@@ -39,6 +39,13 @@ CONVERGED_ANGULAR_SPEED = 0.01
 STALLED_SPEED = 0.001
 """m/s of the exponentially averaged (factor 0.5) EE speed below which a motion has stalled."""
 STALLED_ANGULAR_SPEED = 0.02
+STALLED_SWEEP_SPEED = 0.005
+"""m/s: the stall threshold of a compliant sweep (a documented deviation from §3.2's 0.001 m/s).
+A blocked sweep presses with at most :data:`~t2m_mujoco.controller.SOFT_MAX_FORCE`, less than what slides the 1 kg rack
+(friction 1.0), so in PyBullet, whose friction is rigid, it stands still and stalls at once. MuJoCo's
+friction is soft: the pressed rack and box creep at 1-3 mm/s for as long as the pressure lasts
+(measured), so at 0.001 m/s a blocked sweep ran until the 10 s timeout and kept shoving. A sweep
+still moving freely is far faster than this near its goal, where convergence ends it first."""
 MOVE_JOINT_SPEED = 2.0
 """rad/s: mean speed of the joint that moves most in a free move (the Panda allows 2.1-2.6)."""
 STRAIGHT_SPEED = 0.8
@@ -49,17 +56,6 @@ YAW_SPEED = 2.0
 """rad/s of the gripper yaw on straight moves."""
 IK_KEY_PERIOD = 5
 """Ticks between IK keyframes of a straight move."""
-SOFT_POSITION_GAINS = np.array([49.0, 49.0, 121.0])
-"""N/m of the compliant sweep in x, y, z (tableenv.md §3.2 soft gains)."""
-SOFT_VELOCITY_GAINS = np.array([14.0, 14.0, 22.0])
-"""N·s/m."""
-SOFT_ORIENTATION_GAINS = (121.0, 16.0)
-"""N·m/rad and N·m·s/rad of the sweep's orientation task."""
-SOFT_MAX_FORCE = 6.0
-"""N: the most the compliant sweep pushes with, below what slides the 1 kg rack (friction 1.0)."""
-SOFT_MAX_TORQUE = 10.0
-"""N·m: bound on the sweep's orientation moment (normal sweeps stay below ~3.5 N·m; near a singular
-posture the operational-space inertia, and with it the moment, would grow without bound)."""
 SOFT_POSTURE_SCALE = 0.002
 """During a sweep the joint servos keep only this fraction of their stiffness (a weak posture
 task); the Cartesian impedance does the work."""
@@ -67,8 +63,6 @@ SOFT_DAMPING_SCALE = 0.01
 """Fraction of the joint servos' damping kept during a sweep: enough to keep the limp posture task
 stable, small next to the operational-space damping (a larger one makes the EE crawl behind its
 target and a sweep run for hundreds of ticks)."""
-OPERATIONAL_INERTIA_REGULARISATION = 1e-3
-"""Added to J·M⁻¹·Jᵀ (1/kg, 1/(kg·m²)) before inverting it, bounding Λ (≤ 1000) near singular postures."""
 
 
 @dataclass
@@ -93,8 +87,7 @@ class Executor:
         self.on_tick = on_tick
         self.frame_every = max(1, int(frame_every))
         self._finger_geoms = robot_geoms(world)
-        self._impedance_jacobian = np.zeros((6, world.model.nv))
-        self._mass_matrix = np.zeros((world.model.nv, world.model.nv))
+        self._impedance = SweepImpedance(world.model, world.data, world.robot)
         self.yaw_offset = 0.0
 
     def begin_primitive(self) -> None:
@@ -210,42 +203,43 @@ class Executor:
             key_ticks, key_q = self._straight_keyframes(start_position, start_yaw, goal, yaw, q_start, solution.q, ramp_ticks, null_target)
 
         gains = self._soften() if step.soft else None
+        stalled_speed = STALLED_SWEEP_SPEED if step.soft else STALLED_SPEED
         try:
-            q_target = q_start
             averaged_speed, averaged_angular = None, None
             for tick in range(1, MOTION_TIMEOUT_TICKS + 1):
-                progress = min(1.0, tick / ramp_ticks)
-                if progress >= 1.0:
-                    q_target = solution.q
-                elif straight:
-                    segment = min(tick // IK_KEY_PERIOD, len(key_ticks) - 2)
-                    fraction = (tick - key_ticks[segment]) / (key_ticks[segment + 1] - key_ticks[segment])
-                    q_target = key_q[segment] + fraction * (key_q[segment + 1] - key_q[segment])
-                else:
-                    q_target = q_start + self._ramp(progress) * (solution.q - q_start)  # smoothstep: no velocity jumps
-                world.set_arm_target(q_target)
+                if tick < ramp_ticks:
+                    progress = tick / ramp_ticks
+                    if straight:
+                        segment = min(tick // IK_KEY_PERIOD, len(key_ticks) - 2)
+                        fraction = (tick - key_ticks[segment]) / (key_ticks[segment + 1] - key_ticks[segment])
+                        world.set_arm_target(key_q[segment] + fraction * (key_q[segment + 1] - key_q[segment]))
+                    else:  # smoothstep: no velocity jumps
+                        world.set_arm_target(q_start + self._ramp(progress) * (solution.q - q_start))
+                elif tick == ramp_ticks:
+                    progress = 1.0
+                    world.set_arm_target(solution.q)
                 if gains is not None:
-                    self._apply_impedance(start_position + self._ramp(progress) * (goal - start_position), goal_rotation)
+                    self._impedance.apply(start_position + self._ramp(progress) * (goal - start_position), goal_rotation)
                 self._tick()
 
                 if forbidden and tick % CONTACT_CHECK_PERIOD == 0 and self._collided(watched, forbidden, report):
                     return report
-                if progress < 1.0:
+                if tick < ramp_ticks:
                     continue  # the servo follows the ramp; convergence is judged at its end
-                position, rotation = world.ee_pose()
                 speed, angular = world.ee_velocity()
                 if averaged_speed is None:
                     averaged_speed, averaged_angular = speed, angular
                 else:
                     averaged_speed = 0.5 * averaged_speed + 0.5 * speed
                     averaged_angular = 0.5 * averaged_angular + 0.5 * angular
+                stalled = averaged_speed < stalled_speed and averaged_angular < STALLED_ANGULAR_SPEED
+                # the cheap speed tests first: the pose error is computed only for a slow EE
                 converged = (
-                    np.linalg.norm(goal - position) < CONVERGED_POSITION
-                    and speed < CONVERGED_SPEED
-                    and np.linalg.norm(rotation_error(goal_rotation, rotation)) < CONVERGED_ORIENTATION
+                    speed < CONVERGED_SPEED
                     and angular < CONVERGED_ANGULAR_SPEED
+                    and world.ee_distance(goal) < CONVERGED_POSITION
+                    and world.ee_rotation_error(goal_rotation) < CONVERGED_ORIENTATION
                 )
-                stalled = averaged_speed < STALLED_SPEED and averaged_angular < STALLED_ANGULAR_SPEED
                 if converged or stalled:
                     # a last check, so a contact made after the last periodic check is not missed
                     if forbidden and tick % CONTACT_CHECK_PERIOD:
@@ -256,7 +250,7 @@ class Executor:
         finally:
             if gains is not None:
                 self._restore_gains(gains)
-                world.data.qfrc_applied[world.robot.arm_dof] = 0.0
+                self._impedance.release()
 
     # --- helpers ----------------------------------------------------------------------------------
 
@@ -323,51 +317,6 @@ class Executor:
     @staticmethod
     def _ramp(progress: float) -> float:
         return progress * progress * (3.0 - 2.0 * progress)
-
-    def _apply_impedance(self, position_target: np.ndarray, rotation_target: np.ndarray) -> None:
-        """Operational-space impedance of the original's sweep (tableenv.md §3.2 soft gains): joint
-        torques ``Jᵀ·Λ·(K·(x* − x) − D·v)`` held for the next tick, with ``Λ = (J·M⁻¹·Jᵀ)⁻¹`` the
-        EE's operational-space inertia, so the EE moves like a unit mass on the reference's springs
-        (critically damped at ω = 7 rad/s) instead of dragging the arm's inertia. The force is
-        bounded: a blocked tool presses and stalls, ending the motion as velocity-converged,
-        instead of ploughing through the rack."""
-        import mujoco
-
-        world = self.world
-        model, data, robot = world.model, world.data, world.robot
-        mujoco.mj_kinematics(model, data)
-        mujoco.mj_comPos(model, data)
-        jacobian = self._impedance_jacobian
-        mujoco.mj_jacSite(model, data, jacobian[:3], jacobian[3:], robot.ee_site)
-        arm_jacobian = jacobian[:, robot.arm_dof]
-        velocity = arm_jacobian @ data.qvel[robot.arm_dof]
-        position = data.site_xpos[robot.ee_site]
-        rotation = data.site_xmat[robot.ee_site].reshape(3, 3)
-        acceleration = np.empty(6)
-        acceleration[:3] = SOFT_POSITION_GAINS * (position_target - position) - SOFT_VELOCITY_GAINS * velocity[:3]
-        stiffness, damping = SOFT_ORIENTATION_GAINS
-        acceleration[3:] = stiffness * rotation_error(rotation_target, rotation) - damping * velocity[3:]
-        wrench = self._operational_inertia(arm_jacobian) @ acceleration
-        force = np.linalg.norm(wrench[:3])
-        if force > SOFT_MAX_FORCE:  # a blocked sweep presses, it does not shove (the rack weighs 1 kg)
-            wrench[:3] *= SOFT_MAX_FORCE / force
-        torque = np.linalg.norm(wrench[3:])
-        if torque > SOFT_MAX_TORQUE:  # Λ grows without bound near a singular posture
-            wrench[3:] *= SOFT_MAX_TORQUE / torque
-        data.qfrc_applied[robot.arm_dof] = arm_jacobian.T @ wrench
-
-    def _operational_inertia(self, arm_jacobian: np.ndarray) -> np.ndarray:
-        """``(6, 6)`` Λ = (J·M⁻¹·Jᵀ)⁻¹ of the EE from the arm's joint-space inertia (incl. armature);
-        slightly regularised so it stays bounded near singularities."""
-        import mujoco
-
-        world = self.world
-        full = self._mass_matrix
-        mujoco.mj_fullM(world.model, world.data, full)  # M of the last physics step
-        arm = world.robot.arm_dof
-        arm_inertia = full[np.ix_(arm, arm)]
-        inverse_mass = arm_jacobian @ np.linalg.solve(arm_inertia, arm_jacobian.T)
-        return np.linalg.inv(inverse_mass + OPERATIONAL_INERTIA_REGULARISATION * np.eye(6))
 
     def _restore_gains(self, saved: tuple[np.ndarray, np.ndarray]) -> None:
         model, actuators = self.world.model, self.world.robot.arm_actuators

@@ -7,6 +7,7 @@ about primitives: :mod:`t2m_mujoco.executor` drives it.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
@@ -15,7 +16,7 @@ import numpy as np
 from t2m_core.domain.constants import EPS_TWIST
 from t2m_core.domain.state import GeometricState, ObjectPose
 from t2m_core.protocols import Contact
-from t2m_mujoco.controller import InverseKinematics
+from t2m_mujoco.controller import InverseKinematics, index_slice, rotation_error
 from t2m_mujoco.robot_model import FINGER_OPEN, Q_HOME
 from t2m_mujoco.scene import SceneModel
 
@@ -82,6 +83,8 @@ class World:
         self._body_ids = np.array([scene.body[n] for n in scene.object_names], dtype=int)
         self._previous_twist: np.ndarray | None = None
         self.contact_log: list[Contact] = []
+        self._arm_ctrl = index_slice(self.robot.arm_actuators)
+        self._site_velocity = np.empty(6)
 
     # --- time -------------------------------------------------------------------------------------
 
@@ -93,7 +96,8 @@ class World:
     # --- robot ------------------------------------------------------------------------------------
 
     def set_arm_target(self, q: np.ndarray) -> None:
-        self.data.ctrl[self.robot.arm_actuators] = q
+        """Joint servo targets ``(7,)`` rad."""
+        self.data.ctrl[self._arm_ctrl] = q
 
     def set_gripper(self, opening: float) -> None:
         """Finger target in metres per finger: :data:`FINGER_OPEN` open, 0 closed."""
@@ -112,9 +116,19 @@ class World:
 
     def ee_velocity(self) -> tuple[float, float]:
         """EE linear (m/s) and angular (rad/s) speed."""
-        velocity = np.empty(6)
-        self._mujoco.mj_objectVelocity(self.model, self.data, self._mujoco.mjtObj.mjOBJ_SITE, self.robot.ee_site, velocity, 0)
-        return float(np.linalg.norm(velocity[3:])), float(np.linalg.norm(velocity[:3]))
+        v = self._site_velocity  # (angular, linear)
+        self._mujoco.mj_objectVelocity(self.model, self.data, self._mujoco.mjtObj.mjOBJ_SITE, self.robot.ee_site, v, 0)
+        return math.sqrt(v[3] * v[3] + v[4] * v[4] + v[5] * v[5]), math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+
+    def ee_distance(self, position: np.ndarray) -> float:
+        """Metres from the EE site to ``position`` (3,)."""
+        offset = position - self.data.site_xpos[self.robot.ee_site]
+        return math.sqrt(float(offset @ offset))
+
+    def ee_rotation_error(self, rotation: np.ndarray) -> float:
+        """Radians between the EE orientation and ``rotation`` (3, 3)."""
+        error = rotation_error(rotation, self.data.site_xmat[self.robot.ee_site].reshape(3, 3))
+        return math.sqrt(float(error @ error))
 
     def reset_robot(self, q: np.ndarray = Q_HOME) -> None:
         """Clear the whole simulation state (velocities, warm start, time, sleep), set the joints
