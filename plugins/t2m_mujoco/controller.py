@@ -102,6 +102,10 @@ class InverseKinematics:
         self.robot = robot
         self.data = mujoco.MjData(model)
         self._jacobian = np.zeros((6, model.nv))
+        self._arm = index_slice(robot.arm_dof)
+        self._arm_qpos = index_slice(robot.arm_qpos)
+        self._weights = np.empty(6)
+        self._projected = np.empty(6)
         self._low = robot.joint_low + JOINT_LIMIT_MARGIN
         self._high = robot.joint_high - JOINT_LIMIT_MARGIN
         self.home_rotation = self.forward(Q_HOME)[1]
@@ -123,7 +127,7 @@ class InverseKinematics:
         """One DLS iteration from ``q`` toward the pose, with a null-space pull toward ``null_target``
         (``None``: none); returns the new ``(7,)`` joints, clipped to the limits."""
         mujoco, data, robot = self._mujoco, self.data, self.robot
-        data.qpos[robot.arm_qpos] = q
+        data.qpos[self._arm_qpos] = q
         mujoco.mj_kinematics(self.model, data)
         mujoco.mj_comPos(self.model, data)
         site = robot.ee_site
@@ -131,13 +135,20 @@ class InverseKinematics:
         error[:3] = position - data.site_xpos[site]
         error[3:] = rotation_error(rotation, data.site_xmat[site].reshape(3, 3))
         mujoco.mj_jacSite(self.model, data, self._jacobian[:3], self._jacobian[3:], site)
-        jac = self._jacobian[:, robot.arm_dof]
+        jac = self._jacobian[:, self._arm]
+        # dq = J⁺·e + (I − J⁺·J)·z with the damped pseudo-inverse J⁺ = Jᵀ·(J·Jᵀ + λ²I)⁻¹, (7, 6); the
+        # projected pull is z − J⁺·(J·z): one Cholesky factor of J·Jᵀ + λ²I serves both solves
         jjt = jac @ jac.T
-        jjt[np.diag_indices(6)] += IK_DAMPING**2
-        pinv = jac.T @ np.linalg.inv(jjt)  # damped pseudo-inverse J⁺, (7, 6)
-        dq = pinv @ error
-        if null_target is not None:
-            dq += (np.eye(7) - pinv @ jac) @ (IK_NULL_GAIN * (null_target - q))
+        jjt.flat[::7] += IK_DAMPING**2  # the diagonal
+        mujoco.mju_cholFactor(jjt, 0.0)  # symmetric positive definite: Cholesky, in place
+        weights = self._weights
+        mujoco.mju_cholSolve(weights, jjt, error)
+        if null_target is None:
+            return np.clip(q + jac.T @ weights, self._low, self._high)
+        pull = IK_NULL_GAIN * (null_target - q)
+        projected = self._projected
+        mujoco.mju_cholSolve(projected, jjt, jac @ pull)
+        dq = jac.T @ (weights - projected) + pull
         return np.clip(q + dq, self._low, self._high)
 
     def _iterate(
@@ -243,8 +254,8 @@ class SweepImpedance:
         self._arm = index_slice(robot.arm_dof)
         self._jacobian = np.zeros((6, model.nv))  # rows: linear (3), angular (3)
         self._inverse_mass_jacobian = np.zeros((6, model.nv))  # rows of (M⁻¹·Jᵀ)ᵀ
-        self._regularisation = OPERATIONAL_INERTIA_REGULARISATION * np.eye(6)
         self._acceleration = np.empty(6)
+        self._wrench = np.empty(6)
 
     def apply(self, position_target: np.ndarray, rotation_target: np.ndarray) -> None:
         """Set the arm's applied torques toward ``position_target`` (3,) m and ``rotation_target`` (3, 3)."""
@@ -262,7 +273,11 @@ class SweepImpedance:
         acceleration[3:] = stiffness * rotation_error(rotation_target, rotation) - damping * velocity[3:]
         mujoco.mj_solveM(model, data, self._inverse_mass_jacobian, jacobian)
         # Λ·a = (J·M⁻¹·Jᵀ + εI)⁻¹·a; the regularisation bounds Λ near singular postures
-        wrench = np.linalg.solve(jacobian @ self._inverse_mass_jacobian.T + self._regularisation, acceleration)
+        inverse_inertia = jacobian @ self._inverse_mass_jacobian.T
+        inverse_inertia.flat[::7] += OPERATIONAL_INERTIA_REGULARISATION
+        mujoco.mju_cholFactor(inverse_inertia, 0.0)  # symmetric positive definite
+        wrench = self._wrench
+        mujoco.mju_cholSolve(wrench, inverse_inertia, acceleration)
         force = math.sqrt(wrench[0] * wrench[0] + wrench[1] * wrench[1] + wrench[2] * wrench[2])
         if force > SOFT_MAX_FORCE:  # a blocked sweep presses, it does not shove (the rack weighs 1 kg)
             wrench[:3] *= SOFT_MAX_FORCE / force
