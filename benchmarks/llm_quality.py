@@ -65,16 +65,19 @@ def speed(model: Any, session: LanguageSession) -> dict[str, float]:
     return figures
 
 
-def goal_cases(model: Any, tasks: list, seed: int, variants: list[str], progress: Progress) -> list[dict[str, Any]]:
+def goal_cases(model: Any, tasks: list, seed: int, variants: list[str], progress: Progress, cues: bool = True) -> list[dict[str, Any]]:
     rows = []
     bar = progress.add_task("goal cases", total=len(tasks) * len(variants))
     for task in tasks:
         scene, _ = describe_task_scene(task, seed)
         truth = {frozenset(map(str, alternative)) for alternative in task.goal}
         session = LanguageSession(model, scene, seed=seed)
+        cue_text = scene.instruction if cues else None
         for variant in variants:
             start = time.perf_counter()
-            query = query_goal(model, session.prompts.goal(scene), scene.objects, constrained=variant == "constrained")
+            query = query_goal(
+                model, session.prompts.goal(scene), scene.objects, constrained=variant == "constrained", instruction=cue_text
+            )
             predicted = None if query.goal is None else {frozenset(map(str, a)) for a in query.goal}
             rows.append(
                 {
@@ -168,6 +171,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--skip-goals", action="store_true")
     parser.add_argument("--skip-next", action="store_true")
     parser.add_argument("--max-next-cases", type=int, default=None)
+    parser.add_argument("--no-cues", action="store_true", help="goal answers without the instruction's relation and count cues")
     parser.add_argument("--transcript", type=Path, default=None, help="record every request (JSONL)")
     parser.add_argument("--json", dest="json_out", type=Path, required=True, help="write the figures here")
     args = parser.parse_args(argv)
@@ -185,12 +189,12 @@ def main(argv: list[str] | None = None) -> int:
     model = create_language_model(args.llm, options, transcript=args.transcript)
     load_time_s = time.perf_counter() - start
     inner = getattr(model, "model", model)
-    figures: dict[str, Any] = {"llm": args.llm, "seed": args.seed, "load_time_s": load_time_s, "cpu_count": os.cpu_count()}
+    figures: dict[str, Any] = {"llm": args.llm, "seed": args.seed, "instruction_cues": not args.no_cues, "load_time_s": load_time_s, "cpu_count": os.cpu_count()}
     figures["exact_scoring"] = model.capabilities.exact_scoring
     with Progress(console=Console(stderr=True), transient=True) as progress:
         first_scene, _ = describe_task_scene(tasks[0], args.seed)
         figures.update(speed(inner, LanguageSession(inner, first_scene, seed=args.seed)))
-        goals = [] if args.skip_goals else goal_cases(model, tasks, args.seed, variants, progress)
+        goals = [] if args.skip_goals else goal_cases(model, tasks, args.seed, variants, progress, cues=not args.no_cues)
         nexts = [] if args.skip_next else next_cases(model, tasks, args.seed, variants, progress, args.max_next_cases)
     figures["load_average_1min"] = os.getloadavg()[0]
     figures["wall_s"] = time.perf_counter() - start

@@ -14,10 +14,12 @@ fits any argument, as INST (text2motion.md §9.2) leaves semantic validity to th
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Sequence
 
 from t2m_core.domain.objects import OBJECTS
 from t2m_core.domain.skills import SKILLS, STOP
+from t2m_core.language.instruction_cues import GOAL_RELATIONS, CountCue
 
 MAX_GOAL_ALTERNATIVES = 6
 """The most alternatives any task needs (task5: six pairs); more would not fit in 200 tokens."""
@@ -44,13 +46,38 @@ def goal_grammar(
     objects: Sequence[str],
     max_alternatives: int = MAX_GOAL_ALTERNATIVES,
     max_propositions: int = MAX_PROPOSITIONS_PER_ALTERNATIVE,
+    *,
+    relations: Sequence[str] = GOAL_RELATIONS,
+    count: CountCue | None = None,
 ) -> str:
-    """Grammar of ``[['on(a, b)', ...], ...]`` over this scene's objects."""
+    """Grammar of ``[['on(a, b)', ...], ...]`` over this scene's objects.
+
+    Args:
+        objects: the scene's objects.
+        max_alternatives, max_propositions: list bounds (without ``count``).
+        relations: the binary relations allowed (``("on",)`` when the instruction names only *on*).
+        count: a counted box phrase: every alternative then holds exactly ``count.k`` propositions
+            ``relation(box, destination)`` followed by at most one ``on(box, table)`` per other box,
+            and there are at most C(boxes, k) alternatives.
+    """
+    relation = "(" + " | ".join(_literal(name) for name in relations) + ")"
+    if count is not None:
+        others = len(count.boxes) - count.k
+        more_counted = f'("," ws counted){{{count.k - 1}}} ' if count.k > 1 else ""
+        pins = f'("," ws pin){{0,{others}}} ' if count.pins and others > 0 else ""
+        return (
+            f'root ::= ws "[" {_repeat("alt", 1, math.comb(len(count.boxes), count.k))} "]"\n'
+            f'alt ::= "[" counted {more_counted}{pins}"]"\n'
+            f'counted ::= q {relation} "(" box "," ws destination ")" q\n'
+            'pin ::= q "on(" box ", table)" q\n'
+            f"box ::= {_alternation(count.boxes)}\n"
+            f"destination ::= {_alternation(count.destinations)}\n" + _COMMON
+        )
     return (
         f'root ::= ws "[" {_repeat("alt", 1, max_alternatives)} "]"\n'
         f'alt ::= "[" {_repeat("prop", 1, max_propositions)} "]"\n'
         'prop ::= q (binary | inhand) q\n'
-        'binary ::= ("on" | "under") "(" obj "," ws obj ")"\n'
+        f'binary ::= {relation} "(" obj "," ws obj ")"\n'
         'inhand ::= "inhand(" obj ")"\n'
         f"obj ::= {_alternation(objects)}\n" + _COMMON
     )

@@ -26,6 +26,7 @@ from t2m_core.domain.goals import Goal, GoalError, parse_goal, validate_goal
 from t2m_core.domain.literals import LiteralSyntaxError, extract_first_list, parse_string_lists
 from t2m_core.domain.skills import SkillCall, SkillError, check_argument_types, parse_skill_call
 from t2m_core.language import grammar as grammars
+from t2m_core.language import instruction_cues as cues
 from t2m_core.language.prompts import GOAL_REQUEST, K, NEXT_SKILL_REQUEST, SHOOTING_REQUEST
 from t2m_core.protocols import LanguageModel
 
@@ -183,10 +184,24 @@ class GoalQuery:
 
 
 def query_goal(
-    model: LanguageModel, prompt: str, objects: Sequence[str], *, retries: int = GOAL_RETRIES, constrained: bool = True
+    model: LanguageModel,
+    prompt: str,
+    objects: Sequence[str],
+    *,
+    retries: int = GOAL_RETRIES,
+    constrained: bool = True,
+    instruction: str | None = None,
 ) -> GoalQuery:
-    """Ask for the goal; re-query with a note up to ``retries`` times while the answer is invalid."""
-    grammar = _grammar_for(model, constrained, lambda: grammars.goal_grammar(objects))
+    """Ask for the goal; re-query with a note up to ``retries`` times while the answer is invalid.
+
+    With ``instruction``, its cues (:mod:`t2m_core.language.instruction_cues`) shape the answer: the
+    grammar allows only the goal relations its words name and, for a counted box phrase ("three of
+    the boxes"), alternatives of exactly that many boxes; a uniform counted answer is completed to
+    every subset of that size. Without it, the goal is the model's answer as written.
+    """
+    relations = cues.named_relations(instruction) if instruction else cues.GOAL_RELATIONS
+    count = cues.count_cue(instruction, objects) if instruction else None
+    grammar = _grammar_for(model, constrained, lambda: grammars.goal_grammar(objects, relations=relations, count=count))
     attempts: list[Attempt] = []
     current = prompt
     for _ in range(retries + 1):
@@ -198,7 +213,7 @@ def query_goal(
             current = with_error_note(prompt, answer, error.message)
             continue
         attempts.append(Attempt(current, answer, None))
-        return GoalQuery(goal, attempts)
+        return GoalQuery(cues.complete_counted_goal(goal, count), attempts)
     return GoalQuery(None, attempts)
 
 

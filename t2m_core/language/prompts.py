@@ -42,6 +42,7 @@ from t2m_core.domain.goals import Goal
 from t2m_core.domain.literals import format_string_list
 from t2m_core.domain.skills import SKILLS, STOP
 from t2m_core.errors import T2MError
+from t2m_core.language.instruction_cues import RELATION_WORDS
 from t2m_core.language.scene_description import SceneDescription
 
 K = 5
@@ -174,13 +175,8 @@ def examples_for_seed(seed: int, examples: Sequence[Example] | None = None) -> t
     return tuple(ordered)
 
 
-# Words that say which goal relation an instruction asks for; small models copy the relation of the
-# example closest to the query, so that example should ask for the same one.
-_RELATION_WORDS = {
-    "on": "on", "onto": "on", "to": "on", "atop": "on",
-    "under": "under", "beneath": "under", "underneath": "under", "below": "under", "hidden": "under",
-    "tuck": "under", "slide": "under", "push": "under", "shove": "under",
-}
+# Small models copy the goal relation of the example closest to the query, so that example should
+# ask for the same relation (RELATION_WORDS) and share the instruction's content words.
 _STOPWORDS = frozenset(
     "a an the of and or for me my i you your it them is be would could can how please do what "
     "box boxes rack put get move make set".split()
@@ -192,8 +188,8 @@ RELATION_WEIGHT = 3.0
 def _instruction_features(text: str) -> tuple[set[str], set[str]]:
     """(goal relations named, content words) of an instruction."""
     words = re.findall(r"[a-z]+", text.lower())
-    relations = {_RELATION_WORDS[word] for word in words if word in _RELATION_WORDS}
-    content = {word.rstrip("s") for word in words if word not in _STOPWORDS and word not in _RELATION_WORDS}
+    relations = {RELATION_WORDS[word] for word in words if word in RELATION_WORDS}
+    content = {word.rstrip("s") for word in words if word not in _STOPWORDS and word not in RELATION_WORDS}
     return relations, content
 
 

@@ -130,7 +130,9 @@ class LanguageSession:
 
     def predict_goal(self) -> GoalQuery:
         """The goal query (bounded re-query; ``goal`` is ``None`` when every attempt was invalid)."""
-        return query_goal(self.model, self.prompts.goal(self.scene), self.scene.objects, constrained=self.constrained)
+        return query_goal(
+            self.model, self.prompts.goal(self.scene), self.scene.objects, constrained=self.constrained, instruction=self.scene.instruction
+        )
 
     def history(self, executed: Sequence[SkillCall]) -> list[HistoryStep]:
         """History lines for ``executed`` with symbolically predicted relationships."""

@@ -30,3 +30,19 @@ def test_sequence_grammar_bounds_sequences_and_length():
     text = skill_sequences_grammar(OBJECTS, k=5, d_max=10)
     assert 'root ::= ws "[" seq ("," ws seq){0,4} "]"' in text
     assert 'seq ::= "[" item ("," ws item){0,9} "]"' in text
+
+
+def test_goal_grammar_keeps_the_named_relations_only():
+    text = goal_grammar(OBJECTS, relations=("on",))
+    assert 'binary ::= ("on") "("' in text and "under" not in text
+
+
+def test_counted_goal_grammar_fixes_boxes_per_alternative():
+    from t2m_core.language.instruction_cues import count_cue
+
+    objects = ("table", "rack", "hook", "red_box", "blue_box", "yellow_box")
+    text = goal_grammar(objects, relations=("on",), count=count_cue("Put two boxes on the rack.", objects))
+    assert 'root ::= ws "[" alt ("," ws alt){0,2} "]"' in text  # C(3, 2) = 3 alternatives at most
+    assert 'alt ::= "[" counted ("," ws counted){1} ("," ws pin){0,1} "]"' in text
+    assert 'box ::= ("red_box" | "blue_box" | "yellow_box")' in text
+    assert 'destination ::= ("rack")' in text and '"under"' not in text

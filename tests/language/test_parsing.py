@@ -112,3 +112,13 @@ def test_unconstrained_query_sends_no_grammar_and_next_skill_requery():
     assert len(attempts) == 2 and model.grammars == [None, None]
     sequences, attempts = query_skill_sequences(ScriptedModel(["[['pick(hook)']]"]), "ctx\nQ:", OBJECTS)
     assert sequences == [(SkillCall("pick", ("hook",)),)] and attempts[0].problem is None
+
+
+def test_goal_query_with_the_instruction_constrains_and_completes_a_counted_goal():
+    model = ScriptedModel(["[['on(red_box, rack)']]"], grammar=True)
+    query = query_goal(model, "ctx\nQ:", OBJECTS, instruction="Put one box onto the rack.")
+    assert query.goal.to_lists() == [["on(red_box, rack)"], ["on(blue_box, rack)"]]
+    assert "counted" in model.grammars[0] and '"under"' not in model.grammars[0]
+    plain = ScriptedModel(["[['on(red_box, rack)']]"], grammar=True)
+    assert query_goal(plain, "ctx\nQ:", OBJECTS).goal.to_lists() == [["on(red_box, rack)"]]
+    assert '"under"' in plain.grammars[0]
