@@ -39,13 +39,15 @@ CONVERGED_ANGULAR_SPEED = 0.01
 STALLED_SPEED = 0.001
 """m/s of the exponentially averaged (factor 0.5) EE speed below which a motion has stalled."""
 STALLED_ANGULAR_SPEED = 0.02
-STALLED_SWEEP_SPEED = 0.005
-"""m/s: the stall threshold of a compliant sweep (a documented deviation from §3.2's 0.001 m/s).
-A blocked sweep presses with at most :data:`~t2m_mujoco.controller.SOFT_MAX_FORCE`, less than what slides the 1 kg rack
-(friction 1.0), so in PyBullet, whose friction is rigid, it stands still and stalls at once. MuJoCo's
-friction is soft: the pressed rack and box creep at 1-3 mm/s for as long as the pressure lasts
-(measured), so at 0.001 m/s a blocked sweep ran until the 10 s timeout and kept shoving. A sweep
-still moving freely is far faster than this near its goal, where convergence ends it first."""
+STALLED_SWEEP_SPEED = CONVERGED_SPEED
+"""m/s: the stall threshold of a compliant sweep, the slowest speed a converged motion may have (a
+documented deviation from §3.2's 0.001 m/s). A blocked sweep presses with at most
+:data:`~t2m_mujoco.controller.SOFT_MAX_FORCE`, less than what slides the 1 kg rack (friction 1.0), so
+in PyBullet, whose friction is rigid, it stands still and stalls at once. MuJoCo's friction is soft:
+a pressed rack, or a box pressed against it, creeps at 1-10 mm/s for as long as the pressure lasts
+(measured), so at 0.001 m/s a blocked sweep ran until the 10 s timeout, shoving the rack along. A
+sweep still moving freely is much faster than this until it is within millimetres of its goal,
+where convergence ends it."""
 MOVE_JOINT_SPEED = 2.0
 """rad/s: mean speed of the joint that moves most in a free move (the Panda allows 2.1-2.6)."""
 STRAIGHT_SPEED = 0.8

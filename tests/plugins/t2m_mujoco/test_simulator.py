@@ -168,3 +168,37 @@ def test_held_object_moves_only_with_the_hand(sim):
     world.forward()  # body velocities from the new qvel
     world.forget_twist()
     assert world.moving_objects() == ["yellow_box"]
+
+
+def _sweep_into_rack(sim) -> tuple[int, str | None, float]:
+    """Sweep the open fingers (soft gains) into the edge of task0's rack top plate, seed 0 (rack at
+    (0.435, −0.339), long side along x); returns (ticks, failure, metres the rack moved)."""
+    from t2m_core.domain.primitives import MotionKind, MotionStep
+
+    sim.reset(load_task("task0"), seed=0)
+    world, executor = sim.world, sim.executor
+    executor.begin_primitive()
+    assert executor.run(MotionStep(MotionKind.MOVE, "start", np.array([0.435, -0.14, 0.14]), 0.0)).failure is None
+    rack_before = world.object_pose("rack").position
+    start_ticks = world.ticks
+    report = executor.run(MotionStep(MotionKind.SWEEP, "into_rack", np.array([0.435, -0.34, 0.14]), 0.0, soft=True))
+    return world.ticks - start_ticks, report.failure, float(np.linalg.norm(world.object_pose("rack").position - rack_before))
+
+
+def test_blocked_compliant_sweep_stalls(sim):
+    """A sweep pressing the 1 kg rack (friction 1.0) with at most 6 N stalls and ends without a
+    failure; MuJoCo's soft friction lets the pressed rack creep at a few mm/s, which the
+    reference's 0.001 m/s never caught (the sweep ran into the 10 s timeout)."""
+    ticks, failure, rack_moved = _sweep_into_rack(sim)
+    assert failure is None
+    assert ticks < 150
+    assert rack_moved < 0.07  # the impact shifts it ~5 cm; it is not shoved on (12 cm in 10 s)
+
+
+def test_blocked_sweep_under_the_reference_threshold_creeps(sim, monkeypatch):
+    """The counter-check of the test above: with §3.2's 0.001 m/s the same blocked sweep creeps on."""
+    from t2m_mujoco import executor
+
+    monkeypatch.setattr(executor, "STALLED_SWEEP_SPEED", executor.STALLED_SPEED)
+    ticks, _failure, _moved = _sweep_into_rack(sim)
+    assert ticks > 300
