@@ -1,11 +1,13 @@
-"""Success rate of each primitive under the heuristic sampler and under uniform actions.
+"""Success rate of each primitive under the heuristic sampler, the screened heuristic and uniform actions.
 
     python benchmarks/primitive_success.py --sim mujoco --json OUT [--samples 500] [--only pull,push]
         [--scenes task|evaluation]
 
 Scenes come from the tasks (same cases as sim_throughput.py): one distinct scene per sample, the setup skills
 (e.g. picking the hook by its handle's tail before a pull) not counted, then one
-heuristic and one uniform execution from that same snapshot. ``--scenes evaluation`` measures the
+heuristic (the reference's, §10), one screened-heuristic (``Primitive.screened_action``, the data-generation
+sampler: heuristic draws that pass an analytic screen of the domain geometry) and one uniform execution
+from that same snapshot. ``--scenes evaluation`` measures the
 tableenv.md §12.5 evaluation scenes instead (feasible instances: ``free``, ``nonblocking``), where
 they differ from the task scenes (Pull).
 """
@@ -49,7 +51,12 @@ def main() -> None:
         task = evaluation_scene(scene_a, scene_b) if args.scenes == "evaluation" else case_scene(scene_a, scene_b)
         rng = np.random.default_rng(1)
         spec = get_primitive(primitive)
-        counts = {sampler: Counter() for sampler in ("heuristic", "uniform")}
+        samplers = {
+            "heuristic": spec.heuristic_action,
+            "screened": spec.screened_action,
+            "uniform": lambda _state, _arguments, generator: generator.uniform(-1, 1, 4),
+        }
+        counts = {sampler: Counter() for sampler in samplers}
         for _reset in track(distinct_scenes(sim, task, args.samples), total=args.samples, description=f"{name:5s}", transient=True):
             if not prepare(sim, setup, rng):
                 continue
@@ -57,7 +64,7 @@ def main() -> None:
             state = sim.geometric_state()
             for sampler, counter in counts.items():
                 sim.set_state(scene)
-                action = spec.heuristic_action(state, arguments, rng) if sampler == "heuristic" else rng.uniform(-1, 1, 4)
+                action = samplers[sampler](state, arguments, rng)
                 result = sim.execute(primitive, arguments, action)
                 counter[result.failure or "success"] += 1
         for sampler, counter in counts.items():

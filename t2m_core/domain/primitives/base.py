@@ -277,8 +277,29 @@ class Primitive(ABC):
     ) -> np.ndarray:
         """``(4,) float64`` data-generation action (§10.1): with probability 0.9 the heuristic action plus
         N(0, 0.05²) per dimension, clipped to ``[-1, 1]``; otherwise uniform in ``[-1, 1]⁴``."""
+        return self._explore(self.heuristic_action, state, arguments, rng)
+
+    def screened_physical(self, state: GeometricState, arguments: Sequence[str], rng: np.random.Generator) -> np.ndarray:
+        """``(4,)`` physical action of the *screened heuristic*, the data-generation sampler: heuristic
+        draws filtered by an analytic feasibility screen of the domain's geometry (no simulation).
+        The default is the heuristic itself; Pull and Push screen (see ``sweep_screen``)."""
+        return self.heuristic_physical(state, arguments, rng)
+
+    def screened_action(self, state: GeometricState, arguments: Sequence[str], rng: np.random.Generator) -> np.ndarray:
+        """``(4,) float64`` normalised :meth:`screened_physical` action, clipped to ``[-1, 1]``."""
+        return np.clip(self.to_normalized(self.screened_physical(state, arguments, rng)), -1.0, 1.0)
+
+    def screened_exploration_action(
+        self, state: GeometricState, arguments: Sequence[str], rng: np.random.Generator
+    ) -> np.ndarray:
+        """:meth:`exploration_action` around :meth:`screened_action` instead of the plain heuristic."""
+        return self._explore(self.screened_action, state, arguments, rng)
+
+    def _explore(
+        self, sampler: Callable[..., np.ndarray], state: GeometricState, arguments: Sequence[str], rng: np.random.Generator
+    ) -> np.ndarray:
         if rng.random() < EXPLORATION_HEURISTIC_PROBABILITY:
-            noisy = self.heuristic_action(state, arguments, rng) + rng.normal(0.0, EXPLORATION_NOISE_STD, self.action_dim)
+            noisy = sampler(state, arguments, rng) + rng.normal(0.0, EXPLORATION_NOISE_STD, self.action_dim)
             return np.clip(noisy, -1.0, 1.0)
         return rng.uniform(-1.0, 1.0, self.action_dim)
 

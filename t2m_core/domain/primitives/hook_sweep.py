@@ -16,10 +16,15 @@ import numpy as np
 from t2m_core.domain.geometry import quat_conjugate, quat_multiply, quat_yaw, rotate, yaw_to_quat
 from t2m_core.domain.objects import object_spec
 from t2m_core.domain.primitives.base import Primitive
+from t2m_core.domain.primitives.sweep_screen import SweepPrediction, landing_failure, predict_sweep, reach_failure
 from t2m_core.domain.state import GeometricState
 
 SWEEP_HEIGHT = 0.03
 """z of the hook's origin during a reach and a sweep, metres."""
+
+SCREEN_DRAWS = 64
+"""Most heuristic draws :meth:`HookSweep.screened_physical` screens before it gives up and returns
+the last one (a scene where no draw passes still gets the reference heuristic's action)."""
 
 
 @dataclass(frozen=True)
@@ -32,6 +37,7 @@ class SweepPoses:
         yaw: EE yaw relative to home for both, radians.
         hook_reach: ``(3,)`` the hook's origin at the reach pose, metres.
         hook_end: ``(3,)`` the hook's origin at the sweep end, metres.
+        hook_yaw: the hook's world yaw φ + θ for both, radians.
     """
 
     reach_position: np.ndarray
@@ -39,6 +45,7 @@ class SweepPoses:
     yaw: float
     hook_reach: np.ndarray
     hook_end: np.ndarray
+    hook_yaw: float
 
 
 def planar_distance(state: GeometricState, name: str) -> float:
@@ -52,7 +59,8 @@ def sweep_poses(
     """Hook poses ``c + Rz(φ)·(r_reach, y, 0)`` and ``c + Rz(φ)·(r_reach + r_sweep, y, 0)`` with the
     hook yawed ``φ + θ``, converted to EE poses with the current grasp transform (metres, radians)."""
     target_xy = state.objects[target].position[:2]
-    frame = yaw_to_quat(np.arctan2(target_xy[1], target_xy[0]))
+    phi = float(np.arctan2(target_xy[1], target_xy[0]))
+    frame = yaw_to_quat(phi)
     base_point = np.array([target_xy[0], target_xy[1], SWEEP_HEIGHT])
     hook_reach = base_point + rotate(frame, np.array([r_reach, y, 0.0]))
     hook_end = base_point + rotate(frame, np.array([r_reach + r_sweep, y, 0.0]))
@@ -65,7 +73,9 @@ def sweep_poses(
     ee_in_hook = rotate(hook_inverse, state.ee_position - hook_pose.position)
     ee_quat = quat_multiply(hook_quat, quat_multiply(hook_inverse, state.ee_quaternion))
     offset = rotate(hook_quat, ee_in_hook)
-    return SweepPoses(hook_reach + offset, hook_end + offset, float(quat_yaw(ee_quat)), hook_reach, hook_end)
+    return SweepPoses(
+        hook_reach + offset, hook_end + offset, float(quat_yaw(ee_quat)), hook_reach, hook_end, phi + float(theta)
+    )
 
 
 class HookSweep(Primitive):
@@ -93,6 +103,50 @@ class HookSweep(Primitive):
         action[0] = self.heuristic_reach(arguments)
         action[3] = 0.125 * np.pi
         return action
+
+    # --- screened heuristic (data generation) -----------------------------------------------------
+
+    def screened_physical(self, state: GeometricState, arguments: Sequence[str], rng: np.random.Generator) -> np.ndarray:
+        """The reference heuristic's draws (r_reach and θ fixed, the sweep length and y uniform),
+        redrawn until :meth:`screen` predicts no failure, at most :data:`SCREEN_DRAWS` times.
+
+        A deviation for data generation only (the reference heuristic stays :meth:`heuristic_physical`):
+        it keeps the heuristic's support and rejects draws the domain's geometry already dooms."""
+        arguments = self.check_arguments(state, arguments)
+        physical = self.heuristic_physical(state, arguments, rng)
+        for _ in range(SCREEN_DRAWS - 1):
+            if self.screen(state, arguments, physical) is None:
+                break
+            physical = self.heuristic_physical(state, arguments, rng)
+        return physical
+
+    def screen(self, state: GeometricState, arguments: Sequence[str], physical: np.ndarray) -> str | None:
+        """The failure reason the domain's geometry predicts for the physical action, or ``None``
+        (see :mod:`~t2m_core.domain.primitives.sweep_screen`). A prediction, not a result."""
+        reason = self.precheck(state, arguments, self.to_normalized(physical))
+        if reason is not None:
+            return reason
+        target, hook = arguments[0], arguments[1]
+        poses = sweep_poses(state, target, hook, *physical)
+        prediction = predict_sweep(
+            state,
+            target,
+            hook,
+            poses.hook_reach,
+            poses.hook_end,
+            poses.hook_yaw,
+            np.stack((poses.reach_position[:2], poses.end_position[:2])),
+            along_head_normal=self.deflects_target,
+        )
+        return reach_failure(prediction) or landing_failure(prediction) or self.screen_sweep(state, arguments, prediction)
+
+    deflects_target: bool = False
+    """Whether the swept box slides along the head's normal (Push) rather than the sweep (Pull)."""
+
+    @abstractmethod
+    def screen_sweep(self, state: GeometricState, arguments: Sequence[str], prediction: SweepPrediction) -> str | None:
+        """The primitive's own predicted failure of the sweep: bystanders in the way, the predicted
+        end of the target outside the region its success test needs."""
 
 
 def hook_clearance(target: str, hook: str) -> tuple[float, float]:

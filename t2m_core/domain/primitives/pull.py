@@ -6,7 +6,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from t2m_core.domain.constants import D_PULL, in_workspace
+from t2m_core.domain.constants import D_PULL, WORKSPACE_RADIUS, WORKSPACE_X_MIN, in_workspace
 from t2m_core.domain.geometry import is_upright
 from t2m_core.domain.objects import ObjectKind
 from t2m_core.domain.primitives.base import (
@@ -19,6 +19,7 @@ from t2m_core.domain.primitives.base import (
     other_objects,
 )
 from t2m_core.domain.primitives.hook_sweep import HookSweep, hook_clearance, planar_distance
+from t2m_core.domain.primitives.sweep_screen import END_MARGIN, SweepPrediction, bystanders, sweep_failure
 from t2m_core.domain.state import GeometricState
 
 
@@ -85,6 +86,20 @@ class Pull(HookSweep):
         """r_reach = −(½·hook_size_x − 2r − ½‖box_size_xy‖): ≈ −0.125 m for a 0.05 m box."""
         half_hook, clearance = hook_clearance(arguments[0], arguments[1])
         return -(half_hook - clearance)
+
+    def screen_sweep(self, state: GeometricState, arguments: Sequence[str], prediction: SweepPrediction) -> str | None:
+        """Bystanders (the whole rack included) clear of the hook, the box and the hand; the box's
+        predicted end :data:`END_MARGIN` inside the workspace and pulled by d_Pull + that margin."""
+        obstacles = bystanders(state, arguments)
+        reason = sweep_failure(prediction, hook_obstacles=obstacles, target_obstacles=obstacles, hand_obstacles=obstacles)
+        if reason is not None:
+            return reason
+        start_xy, end_xy = prediction.target_start.position[:2], prediction.target_end.position[:2]
+        if end_xy[0] < WORKSPACE_X_MIN + END_MARGIN or np.linalg.norm(end_xy) >= WORKSPACE_RADIUS - END_MARGIN:
+            return "outside_workspace"
+        if np.linalg.norm(end_xy) >= np.linalg.norm(start_xy) - self.min_distance - END_MARGIN:
+            return "not_pulled"
+        return None
 
 
 def target_upright(context: StepContext) -> str | None:

@@ -1,0 +1,125 @@
+"""The screened heuristic of Pull and Push: the analytic screen's predictions on hand-built scenes and
+the sampler that redraws the reference heuristic until the screen passes."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from t2m_core.domain.primitives import PRIMITIVES
+from t2m_core.domain.primitives.hook_sweep import SCREEN_DRAWS, sweep_poses
+from t2m_core.domain.primitives.sweep_screen import predict_sweep
+from t2m_core.domain.state import GeometricState
+from tests.domain.scenes import RACK_BEYOND, on_table, scene
+
+PICK, PULL, PUSH = (PRIMITIVES[n] for n in ("pick", "pull", "push"))
+THETA = math.pi / 8
+PULL_ARGS = ("blue_box", "hook")
+PUSH_ARGS = ("blue_box", "hook", "rack")
+
+
+def holding_hook(box_xy, *, grasp_x: float, rack: bool = True, **others) -> GeometricState:
+    """The hook in hand at the home pose, yaw 0, grasped on the handle ``grasp_x`` from its centre
+    (the EE 0.09 m to the handle's side of the hook's origin, 0.08 m above it); the blue box at
+    ``box_xy``; the rack beyond the workspace unless ``rack`` is false."""
+    hook = on_table("hook", 0.402 - grasp_x, 0.09)
+    hook = type(hook)(hook.position + np.array([0.0, 0.0, 0.4 - 0.08 - hook.position[2]]), hook.quaternion)
+    racks = {"rack": RACK_BEYOND} if rack else {}
+    state = scene(**racks, hook=hook, blue_box=on_table("blue_box", *box_xy), **others)
+    return GeometricState(state.objects, np.array([0.402, 0.0, 0.4]), np.array([0.0, 0.0, 0.0, 1.0]), "hook")
+
+
+PULL_SCENE = holding_hook((0.8, 0.0), grasp_x=-0.1, rack=False)  # the handle's tail, as for a pull
+PUSH_SCENE = holding_hook((0.55, 0.0), grasp_x=0.0)  # the handle's centre, as for a push
+
+
+def pull(r_pull: float, y: float) -> np.ndarray:
+    return np.array([PULL.heuristic_reach(PULL_ARGS), r_pull, y, THETA])
+
+
+def push(r_push: float, y: float) -> np.ndarray:
+    return np.array([PUSH.heuristic_reach(PUSH_ARGS), r_push, y, THETA])
+
+
+def test_prediction_moves_the_box_with_the_head_after_the_gap() -> None:
+    poses = sweep_poses(PULL_SCENE, "blue_box", "hook", *pull(-0.3, -0.03))
+    prediction = predict_sweep(
+        PULL_SCENE, "blue_box", "hook", poses.hook_reach, poses.hook_end, poses.hook_yaw,
+        np.stack((poses.reach_position[:2], poses.end_position[:2])),
+    )
+    moved = prediction.target_end.position - prediction.target_start.position
+    # Straight towards the base, a little less than the 0.3 m sweep (the head first closes its gap).
+    assert moved[1] == pytest.approx(0.0, abs=1e-9) and moved[2] == 0.0
+    assert -0.3 < moved[0] < -0.27
+    np.testing.assert_allclose(prediction.ee_path[0], poses.reach_position[:2])
+
+
+def test_pull_screen_accepts_a_clean_pull_into_the_workspace() -> None:
+    assert PULL.screen(PULL_SCENE, PULL_ARGS, pull(-0.3, -0.03)) is None
+
+
+def test_pull_screen_predicts_each_failure() -> None:
+    # θ = π/8 swings the handle towards the box: with y > 0 it comes down on the box's top.
+    assert PULL.screen(PULL_SCENE, PULL_ARGS, pull(-0.3, 0.05)) == "tipped_over"
+    # Too short: the box stays beyond the workspace's radius.
+    assert PULL.screen(PULL_SCENE, PULL_ARGS, pull(-0.12, -0.03)) == "outside_workspace"
+    # Too long: the EE would end within the arm's minimum radius.
+    assert PULL.screen(PULL_SCENE, PULL_ARGS, pull(-0.4, -0.03)) == "unreachable"
+    # A bystander on the box's way to the base.
+    blocked = holding_hook((0.8, 0.0), grasp_x=-0.1, rack=False, red_box=on_table("red_box", 0.6, 0.0))
+    assert PULL.screen(blocked, PULL_ARGS, pull(-0.3, -0.03)) == "disturbed"
+    far = holding_hook((0.95, 0.25), grasp_x=-0.1, rack=False)
+    assert PULL.screen(far, PULL_ARGS, pull(-0.3, -0.03)) == "unreachable"
+    not_held = GeometricState(PULL_SCENE.objects, PULL_SCENE.ee_position, PULL_SCENE.ee_quaternion, None)
+    assert PULL.screen(not_held, PULL_ARGS, pull(-0.3, -0.03)) == "not_held"
+
+
+def test_push_screen_wants_the_box_just_under_the_rack() -> None:
+    # The rack's near edge is at x = 0.71; the box (front face at 0.575) must end 0.02-0.12 m past it.
+    for r_push in (0.22, 0.25, 0.3):
+        assert PUSH.screen(PUSH_SCENE, PUSH_ARGS, push(r_push, -0.03)) is None
+    assert PUSH.screen(PUSH_SCENE, PUSH_ARGS, push(0.15, -0.03)) == "not_under"
+    assert PUSH.screen(PUSH_SCENE, PUSH_ARGS, push(0.35, -0.03)) == "disturbed"
+    assert PUSH.screen(PUSH_SCENE, PUSH_ARGS, push(0.4, -0.03)) == "unreachable"  # the EE passes 0.70 m
+    # y > 0 puts the corner at the head's joint on the box, which turns it aside.
+    assert PUSH.screen(PUSH_SCENE, PUSH_ARGS, push(0.3, 0.05)) == "not_under"
+    # Between the legs only: the angled head drifts the box sideways, into a leg from y = 0.08.
+    beside = holding_hook((0.55, 0.08), grasp_x=0.0)
+    assert PUSH.screen(beside, PUSH_ARGS, push(0.3, -0.03)) == "disturbed"
+
+
+def test_screened_sampler_keeps_the_heuristic_support_and_passes_the_screen() -> None:
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        physical = PUSH.screened_physical(PUSH_SCENE, PUSH_ARGS, rng)
+        assert physical[0] == pytest.approx(PUSH.heuristic_reach(PUSH_ARGS)) and physical[3] == pytest.approx(THETA)
+        assert np.all(physical >= PUSH.action_low) and np.all(physical <= PUSH.action_high)
+        assert PUSH.screen(PUSH_SCENE, PUSH_ARGS, physical) is None
+        action = PULL.screened_action(PULL_SCENE, PULL_ARGS, rng)
+        assert PULL.screen(PULL_SCENE, PULL_ARGS, PULL.to_physical(action)) is None
+    # Reproducible from the generator's state.
+    a = PULL.screened_action(PULL_SCENE, PULL_ARGS, np.random.default_rng(9))
+    b = PULL.screened_action(PULL_SCENE, PULL_ARGS, np.random.default_rng(9))
+    np.testing.assert_array_equal(a, b)
+
+
+def test_screened_sampler_falls_back_to_the_heuristic_when_nothing_passes() -> None:
+    beyond_reach = holding_hook((0.95, 0.25), grasp_x=-0.1, rack=False)
+    rng, twin = np.random.default_rng(2), np.random.default_rng(2)
+    physical = PULL.screened_physical(beyond_reach, PULL_ARGS, rng)
+    for _ in range(SCREEN_DRAWS):
+        expected = PULL.heuristic_physical(beyond_reach, PULL_ARGS, twin)
+    np.testing.assert_array_equal(physical, expected)  # the last of SCREEN_DRAWS heuristic draws
+
+
+def test_primitives_without_a_screen_use_the_heuristic() -> None:
+    state = scene(red_box=on_table("red_box", 0.5, 0.0))
+    np.testing.assert_array_equal(
+        PICK.screened_action(state, ["red_box"], np.random.default_rng(1)),
+        PICK.heuristic_action(state, ["red_box"], np.random.default_rng(1)),
+    )
+    for _ in range(50):
+        action = PUSH.screened_exploration_action(PUSH_SCENE, PUSH_ARGS, np.random.default_rng(_))
+        assert action.shape == (4,) and np.all(np.abs(action) <= 1.0)
