@@ -18,8 +18,9 @@ class LocalModelOptions(BaseModel):
             assembled once into the t2m cache from its PyPI chunk packages.
         n_ctx: context window in tokens (a full planning prompt with 10 examples is about 3,000).
         n_threads: CPU threads generating tokens; ``None`` = all cores but one, at most 8.
-        n_threads_batch: CPU threads evaluating prompts and scoring candidates; ``None`` = as
-            ``n_threads``. On an idle machine all cores are faster; beside busy processes, slower.
+        n_threads_batch: CPU threads evaluating prompts and scoring candidates; ``None`` = all
+            cores, at most 8 (batches are compute-bound; threads wait passively, see
+            :data:`t2m_llm_local.llama.WAIT_POLICY`).
         n_batch: tokens per llama.cpp decode call.
         seed: sampling seed (only used at temperature > 0).
     """
@@ -29,7 +30,7 @@ class LocalModelOptions(BaseModel):
     model_path: Path | None = Field(default=None, description="GGUF file; unset = the embedded default model")
     n_ctx: int = Field(default=8192, ge=256, le=131072, description="context window (tokens)")
     n_threads: int | None = Field(default=None, ge=1, le=256, description="generation threads (unset: all cores but one, max 8)")
-    n_threads_batch: int | None = Field(default=None, ge=1, le=256, description="prompt/scoring threads (unset: as n_threads)")
+    n_threads_batch: int | None = Field(default=None, ge=1, le=256, description="prompt/scoring threads (unset: all cores, max 8)")
     n_batch: int = Field(default=512, ge=8, le=8192, description="tokens per decode call")
     seed: int = Field(default=0, ge=0, description="sampling seed for temperature > 0")
 

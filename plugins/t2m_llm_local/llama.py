@@ -19,6 +19,7 @@ import os
 import threading
 import time
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -29,12 +30,31 @@ from t2m_core.protocols import LanguageModelCapabilities
 
 from t2m_llm_local.hooks import LocalModelOptions
 from t2m_llm_local.model_files import default_model_path
+from t2m_llm_local.trie_scoring import TrieScorer
 
 log = logging.getLogger(__name__)
 
 CONTEXT_HINT = "raise the local model's n_ctx option (t2m llm: --set n_ctx=16384; run config: language_model.options.n_ctx)"
 
-_MODELS: dict[tuple[Any, ...], tuple[Any, threading.Lock]] = {}
+WAIT_POLICY = "PASSIVE"
+"""OpenMP wait policy set (unless the user set one) before llama.cpp loads. llama.cpp's threads meet
+at a barrier after every operation; with the default spinning wait, a thread that loses its core to
+another process stalls the others for a scheduler quantum at each barrier (measured on 2 busy
+cores: 2 threads took 0.4-1.2 s per scored candidate, 1 thread 0.18 s). Passive waiting yields the
+core instead: 2 threads then took 0.07 s on the same busy machine."""
+
+
+@dataclass
+class LoadedModel:
+    """A process-wide llama.cpp model, the lock that serialises its use (its KV caches are shared
+    state) and its candidate scorer (a second context over the same weights, made on first use)."""
+
+    llama: Any
+    lock: threading.Lock
+    scorer: TrieScorer | None = None
+
+
+_MODELS: dict[tuple[Any, ...], LoadedModel] = {}
 _MODELS_LOCK = threading.Lock()
 
 
@@ -43,17 +63,19 @@ def _close_models() -> None:
     """Free the models before interpreter shutdown: llama-cpp-python's ``__del__`` fails once its
     module globals are gone, printing an "Exception ignored" traceback at every exit."""
     with _MODELS_LOCK:
-        for llama, _ in _MODELS.values():
-            llama.close()
+        for loaded in _MODELS.values():
+            if loaded.scorer is not None:
+                loaded.scorer.close()
+            loaded.llama.close()
         _MODELS.clear()
 
 
-def _load_llama(path: Path, n_ctx: int, n_threads: int, n_threads_batch: int, n_batch: int) -> tuple[Any, threading.Lock]:
-    """The process-wide llama.cpp model for these settings (loaded on first use) and the lock that
-    serialises its use (its KV cache is one shared state)."""
+def _load_llama(path: Path, n_ctx: int, n_threads: int, n_threads_batch: int, n_batch: int) -> LoadedModel:
+    """The process-wide llama.cpp model for these settings, loaded on first use."""
     key = (str(path), n_ctx, n_threads, n_threads_batch, n_batch)
     with _MODELS_LOCK:
         if key not in _MODELS:
+            os.environ.setdefault("OMP_WAIT_POLICY", WAIT_POLICY)
             from llama_cpp import Llama
 
             start = time.perf_counter()
@@ -72,7 +94,7 @@ def _load_llama(path: Path, n_ctx: int, n_threads: int, n_threads_batch: int, n_
                 raise ModelFileError(
                     f"llama.cpp could not load {path}: {error}", hint="pass a valid GGUF file as model_path"
                 ) from error
-            _MODELS[key] = (llama, threading.Lock())
+            _MODELS[key] = LoadedModel(llama, threading.Lock())
             log.info("loaded %s in %.2f s", path.name, time.perf_counter() - start)
         return _MODELS[key]
 
@@ -80,26 +102,20 @@ def _load_llama(path: Path, n_ctx: int, n_threads: int, n_threads_batch: int, n_
 def default_threads() -> int:
     """Generation threads when none are configured: all cores but one, at most 8.
 
-    llama.cpp's threads spin at every barrier, once per layer and token; on a small, shared machine a
-    thread that loses its core stalls the others (measured on 2 busy cores: 1 thread generates 18
-    tokens/s, 2 threads under 1).
+    Generation decodes one token per call, so its threads meet at a barrier after every small
+    operation; beside other busy processes a second thread costs more than it brings (measured on
+    2 busy cores: 1 thread 11 tokens/s, 2 threads 9 with passive waits, 1-3 with spinning waits).
     """
     return max(1, min(8, (os.cpu_count() or 2) - 1))
 
 
 def default_batch_threads() -> int:
-    """Threads for prompt and candidate batches when none are configured: the same rule as
-    :func:`default_threads`. On an idle 2-core machine 2 batch threads halve the scoring time (96 ms
-    instead of 177 ms per candidate), but beside other busy processes they collapse to seconds per
-    candidate, so all cores are used only when asked for (``n_threads_batch``)."""
-    return default_threads()
+    """Threads for prompt and candidate batches when none are configured: all cores, at most 8.
 
-
-def _log_softmax(logits: np.ndarray) -> np.ndarray:
-    """Row-wise log-softmax of ``(N, V) float32`` logits, computed in float64."""
-    values = logits.astype(np.float64)
-    values -= values.max(axis=1, keepdims=True)
-    return values - np.log(np.exp(values).sum(axis=1, keepdims=True))
+    A batch of tokens is compute-bound, with few barriers per token: with :data:`WAIT_POLICY`
+    every core helps even on a busy machine (measured on 2 busy cores, 5 scored candidates: 70 ms
+    each with 2 threads, 180 ms with 1)."""
+    return max(1, min(8, os.cpu_count() or 2))
 
 
 class LocalLanguageModel:
@@ -125,7 +141,8 @@ class LocalLanguageModel:
         threads = options.n_threads or default_threads()
         batch_threads = options.n_threads_batch or default_batch_threads()
         start = time.perf_counter()
-        self._llama, self._lock = _load_llama(self.model_path, options.n_ctx, threads, batch_threads, options.n_batch)
+        self._loaded = _load_llama(self.model_path, options.n_ctx, threads, batch_threads, options.n_batch)
+        self._llama, self._lock = self._loaded.llama, self._loaded.lock
         self.load_time_s = time.perf_counter() - start
         self._grammars: dict[str, Any] = {}
         self.name = f"local:{self.model_path.name}"
@@ -198,21 +215,6 @@ class LocalLanguageModel:
             ends.append(total)
         return ends
 
-    def _eval_prefix(self, prefix: Sequence[int]) -> None:
-        """Make the KV cache hold exactly ``prefix``, reusing whatever leading part it already holds."""
-        llama = self._llama
-        cached = llama.n_tokens
-        reuse = 0
-        held = llama.input_ids
-        limit = min(cached, len(prefix))
-        while reuse < limit and held[reuse] == prefix[reuse]:
-            reuse += 1
-        llama.n_tokens = reuse
-        if reuse < len(prefix):
-            llama.eval(list(prefix[reuse:]))
-        else:
-            llama._ctx.kv_cache_seq_rm(-1, reuse, -1)
-
     def score(self, prompt: str, candidates: Sequence[str]) -> list[float]:
         """ℓ_k = Σ log p(token | prompt, earlier tokens) over the tokens of each candidate.
 
@@ -240,52 +242,22 @@ class LocalLanguageModel:
         shared = next((index for index, end in enumerate(ends) if end > boundary), common)
         if shared == 0:
             raise ValueError("scoring needs a non-empty context before the candidates")
-        # Evaluate all but the last shared token once; the candidates' decodes start with that token
-        # so its logits predict each candidate's first token.
+        # The cached prompt ends one token before the first token that covers candidate bytes, so
+        # its last logits predict each candidate's first token.
         base = shared - 1
         boundary_in_suffix = boundary - (ends[base - 1] if base else 0)
         suffixes = [list(tokens[base:]) for tokens in full]
-        # Candidates in token order share leading tokens ("place(hook," ...): each is decoded only from
-        # where it leaves the previous one, on top of that one's cached keys and values.
-        order = sorted(range(len(suffixes)), key=lambda index: suffixes[index])
-        scores = [0.0] * len(suffixes)
         with self._lock:
-            self._eval_prefix(first[:base])
-            previous: list[int] = []
-            rows: list[np.ndarray] = []  # rows[i]: log-probabilities after suffix[: i + 1]
-            for index in order:
-                suffix = suffixes[index]
-                common = 0
-                # only rows that were decoded (never the last token's) can be reused
-                while common < min(len(previous) - 1, len(suffix)) and previous[common] == suffix[common]:
-                    common += 1
-                rows = rows[:common] + self._decode_rows(suffix, base, common)
-                scores[index] = self._sum_candidate(suffix, rows, boundary_in_suffix)
-                previous = suffix
-            llama.n_tokens = base
-            llama._ctx.kv_cache_seq_rm(-1, base, -1)
-            # The live logits now belong to a candidate, not to the cached prefix.
-            llama._requires_eval = True
-        return scores
+            if self._loaded.scorer is None:
+                self._loaded.scorer = TrieScorer(llama)
+            try:
+                rows = self._loaded.scorer.log_probs(first[:base], suffixes)
+            except ValueError as error:  # the scorer's only ValueError: prompt + candidates exceed n_ctx
+                raise T2MError(str(error), hint=CONTEXT_HINT) from error
+        return [self._sum_candidate(suffix, row, boundary_in_suffix) for suffix, row in zip(suffixes, rows, strict=True)]
 
-    def _decode_rows(self, suffix: Sequence[int], base: int, start: int) -> list[np.ndarray]:
-        """Log-probability rows ``(V,) float64`` after ``suffix[: i + 1]`` for ``i`` in
-        ``start .. len(suffix) - 2``, decoding those tokens at positions ``base + i`` on top of a KV
-        cache that holds ``tokens[: base + start]``. The last token predicts nothing scored."""
-        llama = self._llama
-        pending = list(suffix[start : len(suffix) - 1])
-        llama._ctx.kv_cache_seq_rm(-1, base + start, -1)
-        if not pending:
-            return []
-        if len(pending) > llama.n_batch:
-            raise ValueError(f"a candidate of {len(suffix)} tokens is longer than the batch ({llama.n_batch})")
-        llama._batch.set_batch(batch=pending, n_past=base + start, logits_all=True)
-        llama._ctx.decode(llama._batch)
-        logits = np.ctypeslib.as_array(llama._ctx.get_logits(), shape=(len(pending), llama.n_vocab()))
-        return list(_log_softmax(logits))
-
-    def _sum_candidate(self, suffix: Sequence[int], rows: Sequence[np.ndarray], boundary: int) -> float:
+    def _sum_candidate(self, suffix: Sequence[int], log_probs: np.ndarray, boundary: int) -> float:
         """Σ log p of the suffix tokens that cover bytes at or after ``boundary`` (counted from the
-        start of ``suffix[0]``); ``rows[i]`` predicts ``suffix[i + 1]``."""
+        start of ``suffix[0]``); ``log_probs[i]`` is that of ``suffix[i + 1]``."""
         ends = self._token_byte_ends(suffix)
-        return float(sum(rows[i][suffix[i + 1]] for i in range(len(suffix) - 1) if ends[i + 1] > boundary))
+        return float(sum(log_probs[i] for i in range(len(suffix) - 1) if ends[i + 1] > boundary))

@@ -1,0 +1,170 @@
+"""Exact log-probabilities of many candidate continuations in one batched llama.cpp decode.
+
+The candidates' tokens form a trie rooted at the cached prompt. Every trie node is decoded once, as
+one token that belongs to *every* candidate sequence passing through it (llama.cpp tokens may carry
+several sequence ids); candidates share the prompt's keys and values through ``seq_cp`` on a unified
+KV cache, so the prompt is evaluated once and never copied. All nodes of a group of candidates go
+into as few ``llama_decode`` calls as the batch size allows: on a CPU a batch of 100 tokens costs far
+less than 30 calls of 3-4 tokens, which re-read all weights each time (measured 2x faster than
+decoding each candidate on its own, with the same exact scores up to float rounding).
+
+The scorer owns a second llama.cpp context over the same loaded weights, so scoring never
+disturbs the generation context's cache, and keeps the last prompt's tokens cached as sequence 0.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+MAX_SEQUENCES = 64
+"""Sequences of the scoring context: sequence 0 holds the prompt, each other one a candidate."""
+
+
+@dataclass
+class _TrieNode:
+    """One decoded token: its id, its position after the prompt, the candidate sequences through it
+    and the tokens that follow it in some candidate (whose log-probabilities this node predicts)."""
+
+    token: int
+    depth: int
+    sequences: list[int] = field(default_factory=list)
+    children: dict[int, int] = field(default_factory=dict)  # next token -> node index
+
+
+class TrieScorer:
+    """Batched exact scoring of candidate token sequences on top of a cached prompt.
+
+    Args:
+        llama: a loaded ``llama_cpp.Llama``; its weights and context settings are reused.
+        max_sequences: sequences of the scoring context (the prompt plus candidates per group).
+        max_batch_tokens: tokens per decode call; ``None`` = the model's ``n_batch``.
+    """
+
+    def __init__(self, llama, max_sequences: int = MAX_SEQUENCES, max_batch_tokens: int | None = None) -> None:
+        import llama_cpp
+        from llama_cpp import _internals
+
+        self._llama_cpp = llama_cpp
+        settings = llama_cpp.llama_context_params.from_buffer_copy(llama.context_params)
+        settings.n_seq_max = min(max_sequences, llama_cpp.llama_max_parallel_sequences())
+        settings.kv_unified = True  # every sequence sees the whole cache: the prompt is shared, not split
+        settings.no_perf = True
+        self.n_ctx = int(settings.n_ctx)
+        self.n_batch = int(settings.n_batch) if max_batch_tokens is None else min(int(settings.n_batch), max_batch_tokens)
+        self.n_vocab = llama.n_vocab()
+        self._group = int(settings.n_seq_max) - 1
+        self._context = _internals.LlamaContext(model=llama._model, params=settings, verbose=False)
+        self._batch = _internals.LlamaBatch(n_tokens=self.n_batch, embd=0, n_seq_max=int(settings.n_seq_max), verbose=False)
+        self._cached: list[int] = []  # tokens held by sequence 0
+
+    def close(self) -> None:
+        """Free the context and batch (before the model they belong to)."""
+        self._batch.close()
+        self._context.close()
+
+    def log_probs(self, prompt: Sequence[int], suffixes: Sequence[Sequence[int]]) -> list[np.ndarray]:
+        """Per candidate, ``(len(suffix) - 1,) float64`` log-probabilities: entry ``i`` is
+        log p(suffix[i + 1] | prompt + suffix[: i + 1]). ``suffix[0]`` is only conditioned on (its
+        own probability needs the prompt's last logits: make it the prompt's last token)."""
+        groups = [suffixes[start : start + self._group] for start in range(0, len(suffixes), self._group)]
+        tries = [self._trie(group) for group in groups]
+        largest = max((len(nodes) for nodes, _ in tries), default=0)
+        if len(prompt) + largest > self.n_ctx:
+            raise ValueError(
+                f"a prompt of {len(prompt)} tokens and {largest} candidate tokens exceed the context of {self.n_ctx}"
+            )
+        self._hold_prompt(list(prompt))
+        results: list[np.ndarray] = []
+        for group, trie in zip(groups, tries, strict=True):
+            results.extend(self._score_group(len(prompt), group, trie))
+        return results
+
+    # ------------------------------------------------------------------------------------------
+
+    def _hold_prompt(self, prompt: list[int]) -> None:
+        """Make sequence 0 hold exactly ``prompt``, decoding only what the cache does not share."""
+        reuse = 0
+        limit = min(len(self._cached), len(prompt))
+        while reuse < limit and self._cached[reuse] == prompt[reuse]:
+            reuse += 1
+        self._context.kv_cache_seq_rm(0, reuse, -1)
+        self._cached = prompt[:reuse]
+        for start in range(reuse, len(prompt), self.n_batch):
+            chunk = prompt[start : start + self.n_batch]
+            self._fill(((token, start + offset, (0,), False) for offset, token in enumerate(chunk)))
+            self._context.decode(self._batch)
+            self._cached = prompt[: start + len(chunk)]
+
+    def _score_group(
+        self, base: int, suffixes: Sequence[Sequence[int]], trie: tuple[list[_TrieNode], dict[int, int]]
+    ) -> list[np.ndarray]:
+        """Score up to ``max_sequences - 1`` candidates as sequences 1..n over the prompt of ``base``
+        tokens; ``trie`` is :meth:`_trie` of ``suffixes``."""
+        nodes, roots = trie
+        # log p(child | node) for every node that has children, filled batch by batch
+        child_log_probs: list[dict[int, float]] = [{} for _ in nodes]
+        context = self._context
+        for sequence in range(1, len(suffixes) + 1):
+            context.kv_cache_seq_cp(0, sequence, 0, base)
+        try:
+            decoded = [index for index, node in enumerate(nodes) if node.children]
+            for start in range(0, len(decoded), self.n_batch):
+                chunk = decoded[start : start + self.n_batch]
+                self._fill((nodes[i].token, base + nodes[i].depth, nodes[i].sequences, True) for i in chunk)
+                context.decode(self._batch)
+                logits = np.ctypeslib.as_array(context.get_logits(), shape=(len(chunk), self.n_vocab))
+                top = logits.max(axis=1)
+                normaliser = top + np.log(np.exp((logits - top[:, None]).astype(np.float64)).sum(axis=1))
+                for row, index in enumerate(chunk):
+                    for token in nodes[index].children:
+                        child_log_probs[index][token] = float(logits[row, token]) - float(normaliser[row])
+        finally:
+            for sequence in range(1, len(suffixes) + 1):
+                context.kv_cache_seq_rm(sequence, -1, -1)
+        results = []
+        for suffix in suffixes:
+            values, node = np.empty(max(len(suffix) - 1, 0)), 0
+            for i in range(len(suffix) - 1):
+                node = nodes[node].children[suffix[i]] if i else roots[suffix[0]]
+                values[i] = child_log_probs[node][suffix[i + 1]]
+            results.append(values)
+        return results
+
+    @staticmethod
+    def _trie(suffixes: Sequence[Sequence[int]]) -> tuple[list[_TrieNode], dict[int, int]]:
+        """Trie nodes in breadth-first order (a node after its parent, so a batch split keeps the
+        causal order) and the roots by token; candidate ``k`` is sequence ``k + 1``."""
+        nodes: list[_TrieNode] = []
+        roots: dict[int, int] = {}
+        for sequence, suffix in enumerate(suffixes, start=1):
+            parent = None
+            for depth, token in enumerate(suffix):
+                siblings = roots if parent is None else nodes[parent].children
+                if token not in siblings:
+                    siblings[token] = len(nodes)
+                    nodes.append(_TrieNode(token, depth))
+                parent = siblings[token]
+                nodes[parent].sequences.append(sequence)
+        order = sorted(range(len(nodes)), key=lambda index: nodes[index].depth)
+        renumber = {old: new for new, old in enumerate(order)}
+        ordered = [nodes[old] for old in order]
+        for node in ordered:
+            node.children = {token: renumber[child] for token, child in node.children.items()}
+        return ordered, {token: renumber[root] for token, root in roots.items()}
+
+    def _fill(self, tokens) -> None:
+        """Write ``(token, position, sequence ids, wants logits)`` rows into the batch."""
+        batch = self._batch.batch
+        count = 0
+        for token, position, sequences, logits in tokens:
+            batch.token[count] = token
+            batch.pos[count] = position
+            batch.n_seq_id[count] = len(sequences)
+            for slot, sequence in enumerate(sequences):
+                batch.seq_id[count][slot] = sequence
+            batch.logits[count] = logits
+            count += 1
+        batch.n_tokens = count
