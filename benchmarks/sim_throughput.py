@@ -1,7 +1,7 @@
 """Primitive executions per CPU-second, per primitive, with heuristic actions, and the ratio of their
 cost to raw ``mj_step`` replaying the same physics.
 
-    python benchmarks/sim_throughput.py --sim mujoco --json OUT [--samples 40] [--only pull,push]
+    python benchmarks/sim_throughput.py --sim mujoco --json OUT [--samples 40] [--only pull,push] [--set substeps=8]
 
 Each sample resets a task scene, brings it to the primitive's precondition (pick: nothing; place,
 pull, push: the object or hook picked first, not timed) and takes a snapshot. Then:
@@ -240,14 +240,22 @@ def main() -> None:
     parser.add_argument("--json", dest="json_out", required=True)
     parser.add_argument("--samples", type=int, default=40)
     parser.add_argument("--only", default="", help="comma-separated primitives (default: all)")
+    parser.add_argument("--set", dest="options", action="append", default=[], metavar="OPTION=VALUE",
+                        help="simulator option, e.g. substeps=8 (repeatable; default: the plugin's defaults)")
     args = parser.parse_args()
+    options = {}
+    for item in args.options:
+        key, separator, value = item.partition("=")
+        if not separator:
+            parser.error(f"--set {item!r}: expected OPTION=VALUE, e.g. substeps=8")
+        options[key] = value
 
     from rich.progress import track
 
     from t2m_core.cli.sim_cmd import resolve_simulator
     from t2m_core.domain.primitives import get_primitive
 
-    sim = resolve_simulator(args.sim)
+    sim = resolve_simulator(args.sim, options)
     if not hasattr(sim, "world"):
         parser.error(f"--sim {args.sim}: the raw mj_step reference needs a MuJoCo simulator (one with a .world)")
     only = set(filter(None, args.only.split(",")))
@@ -268,7 +276,12 @@ def main() -> None:
               f"{figures['mean_ticks']:5.0f} ticks  raw mj_step {figures['raw_executions_per_cpu_second']:6.1f}/CPU-s  "
               f"ratio {figures['ratio_to_raw_mj_step']:.2f} (wall {figures['ratio_to_raw_mj_step_wall']:.2f})  "
               f"replay exact {figures['replay_exact']:.0%}  (n={figures['samples']})")
-    write_json_atomic(args.json_out, {"simulator": args.sim, "method": "process_time; raw = replay of recorded ctrl/qfrc", "primitives": results})
+    write_json_atomic(args.json_out, {
+        "simulator": args.sim,
+        "options": sim.options.model_dump() if hasattr(sim, "options") else options,
+        "method": "CPU: time.process_time; raw: bare mj_step replay of the recorded per-tick inputs",
+        "primitives": results,
+    })
 
 
 if __name__ == "__main__":
