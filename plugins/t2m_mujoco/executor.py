@@ -201,8 +201,17 @@ class Executor:
         else:
             duration = float(np.max(np.abs(solution.q - q_start))) / MOVE_JOINT_SPEED
         ramp_ticks = max(1, int(math.ceil(duration * TICKS_PER_SECOND)))
+        # servo targets (and the sweep's EE targets) of every ramp tick, computed at once
+        ramp = np.arange(1, ramp_ticks)
         if straight:
             key_ticks, key_q = self._straight_keyframes(start_position, start_yaw, goal, yaw, q_start, solution.q, ramp_ticks, null_target)
+            segment = np.minimum(ramp // IK_KEY_PERIOD, len(key_ticks) - 2)
+            fraction = (ramp - key_ticks[segment]) / (key_ticks[segment + 1] - key_ticks[segment])
+            targets = key_q[segment] + fraction[:, None] * (key_q[segment + 1] - key_q[segment])
+        else:  # smoothstep: no velocity jumps
+            targets = q_start + self._ramp(ramp / ramp_ticks)[:, None] * (solution.q - q_start)
+        if step.soft:
+            sweep_targets = start_position + self._ramp(np.append(ramp / ramp_ticks, 1.0))[:, None] * (goal - start_position)
 
         gains = self._soften() if step.soft else None
         stalled_speed = STALLED_SWEEP_SPEED if step.soft else STALLED_SPEED
@@ -210,18 +219,11 @@ class Executor:
             averaged_speed, averaged_angular = None, None
             for tick in range(1, MOTION_TIMEOUT_TICKS + 1):
                 if tick < ramp_ticks:
-                    progress = tick / ramp_ticks
-                    if straight:
-                        segment = min(tick // IK_KEY_PERIOD, len(key_ticks) - 2)
-                        fraction = (tick - key_ticks[segment]) / (key_ticks[segment + 1] - key_ticks[segment])
-                        world.set_arm_target(key_q[segment] + fraction * (key_q[segment + 1] - key_q[segment]))
-                    else:  # smoothstep: no velocity jumps
-                        world.set_arm_target(q_start + self._ramp(progress) * (solution.q - q_start))
+                    world.set_arm_target(targets[tick - 1])
                 elif tick == ramp_ticks:
-                    progress = 1.0
                     world.set_arm_target(solution.q)
                 if gains is not None:
-                    self._impedance.apply(start_position + self._ramp(progress) * (goal - start_position), goal_rotation)
+                    self._impedance.apply(sweep_targets[min(tick, ramp_ticks) - 1], goal_rotation)
                 self._tick()
 
                 if forbidden and tick % CONTACT_CHECK_PERIOD == 0 and self._collided(watched, forbidden, report):
@@ -274,8 +276,8 @@ class Executor:
         q_goal: np.ndarray,
         ramp_ticks: int,
         null_target: np.ndarray,
-    ) -> tuple[list[int], list[np.ndarray]]:
-        """Joint keyframes every :data:`IK_KEY_PERIOD` ticks along the straight EE path (smoothstep
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``(K,)`` ticks and ``(K, 7)`` joint keyframes every :data:`IK_KEY_PERIOD` ticks along the straight EE path (smoothstep
         timing), each two warm-started DLS iterations from the previous one; the servo targets
         interpolate between them, which keeps the EE within a fraction of a millimetre of the line
         while running IK on one tick in five."""
@@ -293,7 +295,7 @@ class Executor:
                 q = ik.step(q, position, rotation, null_target)
             key_q.append(q)
         key_q.append(q_goal)
-        return key_ticks, key_q
+        return np.array(key_ticks), np.array(key_q)
 
     def _half_turn_allowed(self) -> bool:
         held = self.world.held
