@@ -13,7 +13,8 @@ Cases (the scene of each task sampled for ``--seed``):
   by exact score (top-1 / top-5 by rank).
 
 Each generation question runs once per decoding variant (``free``: plain decoding; ``constrained``:
-GBNF grammar from the scene, where the backend supports it).
+GBNF grammar from the scene, where the backend supports it; ``grounded``: next skills constrained to
+the symbolically valid groundings of the described relationships, goals as ``constrained``).
 
 Speed: model load time; generation tokens/s (64 free tokens, local backends only); milliseconds per
 scored candidate once the prompt prefix is cached (goal: under 50 ms).
@@ -67,6 +68,7 @@ def speed(model: Any, session: LanguageSession) -> dict[str, float]:
 
 def goal_cases(model: Any, tasks: list, seed: int, variants: list[str], progress: Progress, cues: bool = True) -> list[dict[str, Any]]:
     rows = []
+    variants = [variant for variant in variants if variant != "grounded"]  # "grounded" changes next skills only
     bar = progress.add_task("goal cases", total=len(tasks) * len(variants))
     for task in tasks:
         scene, _ = describe_task_scene(task, seed)
@@ -76,7 +78,7 @@ def goal_cases(model: Any, tasks: list, seed: int, variants: list[str], progress
         for variant in variants:
             start = time.perf_counter()
             query = query_goal(
-                model, session.prompts.goal(scene), scene.objects, constrained=variant == "constrained", instruction=cue_text
+                model, session.prompts.goal(scene), scene.objects, constrained=variant != "free", instruction=cue_text
             )
             predicted = None if query.goal is None else {frozenset(map(str, a)) for a in query.goal}
             rows.append(
@@ -111,9 +113,17 @@ def next_cases(model: Any, tasks: list, seed: int, variants: list[str], progress
         target = task.reference_skeleton[length]
         row: dict[str, Any] = {"task": task.id, "prefix": length, "target": str(target)}
         prompt = session.prompts.next_skill(session.scene, task.goal, session.history(executed))
+        valid = valid_groundings(session.scene.objects, session.current_relationships(executed))
         for variant in variants:
             start = time.perf_counter()
-            candidates, attempts = query_next_skills(model, prompt, session.scene.objects, K, constrained=variant == "constrained")
+            candidates, attempts = query_next_skills(
+                model,
+                prompt,
+                session.scene.objects,
+                K,
+                constrained=variant != "free",
+                calls=[str(call) for call in valid] if variant == "grounded" else None,
+            )
             scored = session.score(task.goal, executed, candidates.calls)
             ranked = [call for call, _, _ in scored.ranked()]
             row[variant] = {
@@ -125,7 +135,6 @@ def next_cases(model: Any, tasks: list, seed: int, variants: list[str], progress
                 "top5": target in ranked[:5],
                 "seconds": time.perf_counter() - start,
             }
-        valid = valid_groundings(session.scene.objects, session.current_relationships(executed))
         scored = session.score(task.goal, executed, valid)
         ranked = [call for call, _, _ in scored.ranked()]
         row["valid"] = {
@@ -157,7 +166,7 @@ def summarise(goals: list[dict[str, Any]], nexts: list[dict[str, Any]], variants
         summary["next_top5_valid_set"] = sum(row["valid"]["top5"] for row in nexts) / len(nexts)
         summary["valid_set_mean_size"] = statistics.fmean(row["valid"]["size"] for row in nexts)
         summary["next_cases"] = len(nexts)
-    summary["goal_cases_per_variant"] = len(goals) // max(len(variants), 1)
+    summary["goal_cases_per_variant"] = len(goals) // max(len({row["variant"] for row in goals}), 1)
     return summary
 
 
@@ -167,7 +176,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--set", dest="settings", action="append", default=[], help="model option KEY=VALUE")
     parser.add_argument("--seed", type=int, default=0, help="scene seed and example order")
     parser.add_argument("--tasks", default="", help="comma-separated task ids (default: all 7)")
-    parser.add_argument("--variants", default="free,constrained", help="decoding variants to compare")
+    parser.add_argument("--variants", default="free,constrained,grounded", help="decoding variants to compare (free, constrained, grounded)")
     parser.add_argument("--skip-goals", action="store_true")
     parser.add_argument("--skip-next", action="store_true")
     parser.add_argument("--max-next-cases", type=int, default=None)

@@ -102,9 +102,25 @@ def _call_rules(objects: Sequence[str], typed: bool, allow_stop: bool) -> str:
     return "call ::= " + " | ".join(alternatives) + "\n" + "\n".join(rules) + "\n"
 
 
-def skill_list_grammar(objects: Sequence[str], k: int = 5, *, typed: bool = False, allow_stop: bool = False) -> str:
-    """Grammar of ``['pick(a)', 'place(a, b)', ...]`` with 1..k calls over this scene's objects."""
-    return f'root ::= ws "[" {_repeat("item", 1, k)} "]"\nitem ::= q call q\n' + _call_rules(objects, typed, allow_stop) + _COMMON
+def skill_list_grammar(
+    objects: Sequence[str],
+    k: int = 5,
+    *,
+    typed: bool = False,
+    allow_stop: bool = False,
+    calls: Sequence[str] | None = None,
+) -> str:
+    """Grammar of ``['pick(a)', 'place(a, b)', ...]`` with 1..k calls over this scene's objects.
+
+    With ``calls``, entries are exactly those call strings (e.g. the symbolically valid groundings of
+    the described relationships), at most ``min(k, len(calls))`` of them.
+    """
+    if calls:
+        rules = "call ::= " + _alternation([*calls, *([f"{STOP.name}()"] if allow_stop else [])]) + "\n"
+        k = min(k, len(calls) + allow_stop)
+    else:
+        rules = _call_rules(objects, typed, allow_stop)
+    return f'root ::= ws "[" {_repeat("item", 1, k)} "]"\nitem ::= q call q\n' + rules + _COMMON
 
 
 def skill_sequences_grammar(objects: Sequence[str], k: int = 5, d_max: int = 10, *, typed: bool = False) -> str:

@@ -227,10 +227,17 @@ def query_next_skills(
     constrained: bool = True,
     check_types: bool = False,
     allow_stop: bool = False,
+    calls: Sequence[str] | None = None,
 ) -> tuple[SkillCandidates, list[Attempt]]:
-    """Ask for K next skills; re-query while no list parses or no entry is valid."""
+    """Ask for K next skills; re-query while no list parses or no entry is valid.
+
+    ``calls`` (constrained decoding only) limits the entries to those call strings, e.g. the
+    symbolically valid groundings of the described relationships.
+    """
     grammar = _grammar_for(
-        model, constrained, lambda: grammars.skill_list_grammar(objects, k, typed=check_types, allow_stop=allow_stop)
+        model,
+        constrained,
+        lambda: grammars.skill_list_grammar(objects, k, typed=check_types, allow_stop=allow_stop, calls=calls),
     )
     attempts: list[Attempt] = []
     current = prompt

@@ -109,6 +109,10 @@ class LanguageSession:
         k: candidates per query.
         constrained: use grammar-constrained decoding where the model supports it.
         beta: softmax dampening.
+        grounded: with constrained decoding, next-skill answers may name only the symbolically valid
+            groundings of the described relationships (:func:`valid_groundings`; a documented
+            deviation: the reference leaves semantic validity to the Q-functions). ``False`` keeps the
+            scene grammar, where any skill over any scene object is allowed.
     """
 
     def __init__(
@@ -120,6 +124,7 @@ class LanguageSession:
         k: int = K,
         constrained: bool = True,
         beta: float = BETA,
+        grounded: bool = True,
     ) -> None:
         self.model = model
         self.scene = scene
@@ -127,6 +132,7 @@ class LanguageSession:
         self.k = k
         self.constrained = constrained
         self.beta = beta
+        self.grounded = grounded
 
     def predict_goal(self) -> GoalQuery:
         """The goal query (bounded re-query; ``goal`` is ``None`` when every attempt was invalid)."""
@@ -147,7 +153,15 @@ class LanguageSession:
     def generate_next(self, goal: Goal, executed: Sequence[SkillCall]) -> tuple[list[SkillCall], list[Attempt]]:
         """K candidate next skills from the next-skill prompt."""
         prompt = self.prompts.next_skill(self.scene, goal, self.history(executed))
-        candidates, attempts = query_next_skills(self.model, prompt, self.scene.objects, self.k, constrained=self.constrained)
+        calls = valid_groundings(self.scene.objects, self.current_relationships(executed)) if self.grounded else None
+        candidates, attempts = query_next_skills(
+            self.model,
+            prompt,
+            self.scene.objects,
+            self.k,
+            constrained=self.constrained,
+            calls=[str(call) for call in calls] if calls else None,
+        )
         return candidates.calls, attempts
 
     def generate_sequences(

@@ -46,3 +46,10 @@ def test_counted_goal_grammar_fixes_boxes_per_alternative():
     assert 'alt ::= "[" counted ("," ws counted){1} ("," ws pin){0,1} "]"' in text
     assert 'box ::= ("red_box" | "blue_box" | "yellow_box")' in text
     assert 'destination ::= ("rack")' in text and '"under"' not in text
+
+
+def test_skill_list_grammar_over_given_calls():
+    text = skill_list_grammar(OBJECTS, 5, calls=["pick(hook)", "pick(red_box)"])
+    assert 'call ::= ("pick(hook)" | "pick(red_box)")' in text
+    assert 'root ::= ws "[" item ("," ws item){0,1} "]"' in text  # no more entries than calls
+    assert '"place("' not in text

@@ -122,3 +122,10 @@ def test_goal_query_with_the_instruction_constrains_and_completes_a_counted_goal
     plain = ScriptedModel(["[['on(red_box, rack)']]"], grammar=True)
     assert query_goal(plain, "ctx\nQ:", OBJECTS).goal.to_lists() == [["on(red_box, rack)"]]
     assert '"under"' in plain.grammars[0]
+
+
+def test_next_skill_query_over_given_calls_sends_their_grammar():
+    model = ScriptedModel(["['pick(hook)']"], grammar=True)
+    candidates, _ = query_next_skills(model, "ctx\nQ:", OBJECTS, calls=["pick(hook)", "pick(red_box)"])
+    assert [str(c) for c in candidates.calls] == ["pick(hook)"]
+    assert 'call ::= ("pick(hook)" | "pick(red_box)")' in model.grammars[0]

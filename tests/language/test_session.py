@@ -81,3 +81,30 @@ def test_session_scores_with_the_dampened_softmax():
     assert model.prompts[0].endswith("Executed action: pick(hook)\nNew object relationships: "
                                      "['on(rack, table)', 'on(red_box, table)', 'on(blue_box, table)', 'inhand(hook)']\n"
                                      "Executed action:")
+
+
+class GrammarRecorder(LengthScorer):
+    """Test double that accepts grammars and records them."""
+
+    capabilities = LanguageModelCapabilities(exact_scoring=True, grammar=True)
+
+    def __init__(self):
+        super().__init__()
+        self.grammars = []
+
+    def complete(self, prompt, *, grammar=None, **_):
+        self.grammars.append(grammar)
+        return ["['pick(hook)']"]
+
+
+@pytest.mark.parametrize("grounded", [True, False])
+def test_grounded_sessions_offer_only_valid_groundings_to_the_next_skill_grammar(grounded):
+    model = GrammarRecorder()
+    scene = SceneDescription(OBJECTS, RELATIONS, "Put the red box on the rack.")
+    session = LanguageSession(model, scene, seed=0, grounded=grounded)
+    calls, _ = session.generate_next(parse_goal("[['on(red_box, rack)']]"), [])
+    assert calls == [SkillCall("pick", ("hook",))]
+    if grounded:
+        assert 'call ::= ("pick(hook)" | "pick(red_box)" | "pick(blue_box)")' in model.grammars[0]
+    else:
+        assert '"place("' in model.grammars[0] and "pick-arg0" in model.grammars[0]
