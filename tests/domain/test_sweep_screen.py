@@ -63,6 +63,9 @@ def test_pull_screen_accepts_a_clean_pull_into_the_workspace() -> None:
 def test_pull_screen_predicts_each_failure() -> None:
     # θ = π/8 swings the handle towards the box: with y > 0 it comes down on the box's top.
     assert PULL.screen(PULL_SCENE, PULL_ARGS, pull(-0.3, 0.05)) == "tipped_over"
+    # A reach 0.2 m short of the box puts the head itself on top of it.
+    assert PULL.screen(PULL_SCENE, PULL_ARGS, np.array([-0.2, -0.3, -0.03, THETA])) == "tipped_over"
+    assert PULL.screen(PULL_SCENE, PULL_ARGS, np.array([-0.08, -0.3, -0.03, THETA])) is None
     # Too short: the box stays beyond the workspace's radius.
     assert PULL.screen(PULL_SCENE, PULL_ARGS, pull(-0.12, -0.03)) == "outside_workspace"
     # Too long: the EE would end within the arm's minimum radius.
@@ -105,13 +108,24 @@ def test_screened_sampler_keeps_the_heuristic_support_and_passes_the_screen() ->
     np.testing.assert_array_equal(a, b)
 
 
+def test_screened_sampler_tries_the_whole_action_range_where_the_heuristic_cannot_work() -> None:
+    # Here no heuristic draw passes (the EE ends beyond 0.70 m or the handle lands on the box); 5 % of
+    # uniform draws do.
+    far = holding_hook((0.85, -0.2), grasp_x=-0.1, rack=False)
+    rng = np.random.default_rng(4)
+    assert all(PULL.screen(far, PULL_ARGS, PULL.heuristic_physical(far, PULL_ARGS, rng)) for _ in range(SCREEN_DRAWS))
+    physical = PULL.screened_physical(far, PULL_ARGS, rng)
+    assert PULL.screen(far, PULL_ARGS, physical) is None
+    assert physical[0] != pytest.approx(PULL.heuristic_reach(PULL_ARGS))
+
+
 def test_screened_sampler_falls_back_to_the_heuristic_when_nothing_passes() -> None:
     beyond_reach = holding_hook((0.95, 0.25), grasp_x=-0.1, rack=False)
     rng, twin = np.random.default_rng(2), np.random.default_rng(2)
     physical = PULL.screened_physical(beyond_reach, PULL_ARGS, rng)
     for _ in range(SCREEN_DRAWS):
         expected = PULL.heuristic_physical(beyond_reach, PULL_ARGS, twin)
-    np.testing.assert_array_equal(physical, expected)  # the last of SCREEN_DRAWS heuristic draws
+    np.testing.assert_array_equal(physical, expected)  # the last heuristic draw (no uniform one passed)
 
 
 def test_primitives_without_a_screen_use_the_heuristic() -> None:

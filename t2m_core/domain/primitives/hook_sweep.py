@@ -108,17 +108,24 @@ class HookSweep(Primitive):
 
     def screened_physical(self, state: GeometricState, arguments: Sequence[str], rng: np.random.Generator) -> np.ndarray:
         """The reference heuristic's draws (r_reach and θ fixed, the sweep length and y uniform),
-        redrawn until :meth:`screen` predicts no failure, at most :data:`SCREEN_DRAWS` times.
+        redrawn until :meth:`screen` predicts no failure, at most :data:`SCREEN_DRAWS` times; in a
+        scene where none passes (the fixed r_reach and θ cannot work there), up to as many uniform
+        draws over the whole action range, screened alike; failing those, the last heuristic draw.
 
         A deviation for data generation only (the reference heuristic stays :meth:`heuristic_physical`):
-        it keeps the heuristic's support and rejects draws the domain's geometry already dooms."""
+        it rejects the draws the domain's geometry already dooms."""
         arguments = self.check_arguments(state, arguments)
-        physical = self.heuristic_physical(state, arguments, rng)
-        for _ in range(SCREEN_DRAWS - 1):
-            if self.screen(state, arguments, physical) is None:
-                break
+        fallback = None
+        for _ in range(SCREEN_DRAWS):
             physical = self.heuristic_physical(state, arguments, rng)
-        return physical
+            if self.screen(state, arguments, physical) is None:
+                return physical
+            fallback = physical
+        for _ in range(SCREEN_DRAWS):
+            physical = rng.uniform(self.action_low, self.action_high)
+            if self.screen(state, arguments, physical) is None:
+                return physical
+        return fallback
 
     def screen(self, state: GeometricState, arguments: Sequence[str], physical: np.ndarray) -> str | None:
         """The failure reason the domain's geometry predicts for the physical action, or ``None``
@@ -137,11 +144,13 @@ class HookSweep(Primitive):
             poses.hook_yaw,
             np.stack((poses.reach_position[:2], poses.end_position[:2])),
             along_head_normal=self.deflects_target,
+            into_crook=not self.deflects_target,
         )
         return reach_failure(prediction) or landing_failure(prediction) or self.screen_sweep(state, arguments, prediction)
 
     deflects_target: bool = False
-    """Whether the swept box slides along the head's normal (Push) rather than the sweep (Pull)."""
+    """Whether the swept box slides along the head's normal (Push) rather than following the sweep,
+    held in the hook's crook (Pull)."""
 
     @abstractmethod
     def screen_sweep(self, state: GeometricState, arguments: Sequence[str], prediction: SweepPrediction) -> str | None:

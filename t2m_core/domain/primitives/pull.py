@@ -19,7 +19,13 @@ from t2m_core.domain.primitives.base import (
     other_objects,
 )
 from t2m_core.domain.primitives.hook_sweep import HookSweep, hook_clearance, planar_distance
-from t2m_core.domain.primitives.sweep_screen import END_MARGIN, SweepPrediction, bystanders, sweep_failure
+from t2m_core.domain.primitives.sweep_screen import (
+    END_MARGIN,
+    SweepPrediction,
+    bystanders,
+    face_meets_target,
+    sweep_failure,
+)
 from t2m_core.domain.state import GeometricState
 
 
@@ -88,8 +94,10 @@ class Pull(HookSweep):
         return -(half_hook - clearance)
 
     def screen_sweep(self, state: GeometricState, arguments: Sequence[str], prediction: SweepPrediction) -> str | None:
-        """Bystanders (the whole rack included) clear of the hook, the box and the hand; the box's
-        predicted end :data:`END_MARGIN` inside the workspace and pulled by d_Pull + that margin."""
+        """The head's face square on the box; bystanders (the whole rack included) clear of the hook,
+        the box (slid into the crook or not) and the hand; the box's predicted end :data:`END_MARGIN` inside the workspace and pulled by d_Pull + that margin."""
+        if not face_meets_target(prediction):
+            return "not_pulled"
         obstacles = bystanders(state, arguments)
         reason = sweep_failure(prediction, hook_obstacles=obstacles, target_obstacles=obstacles, hand_obstacles=obstacles)
         if reason is not None:

@@ -17,7 +17,7 @@ from t2m_core.domain.primitives.sweep_screen import (
     END_MARGIN,
     SweepPrediction,
     bystanders,
-    head_covers_target,
+    face_meets_target,
     penetration,
     rack_parts,
     sweep_failure,
@@ -99,7 +99,7 @@ class Push(HookSweep):
         """The head's face (not its corner) on the box; the swept box clear of the rack's legs and of
         bystanders, the swept hook and the hand clear of bystanders; the box's predicted footprint
         :data:`UNDER_DEPTH` inside the rack's, and the box pushed by d_Push + a margin."""
-        if not head_covers_target(prediction):
+        if not face_meets_target(prediction):
             return "not_under"
         target, _, rack = arguments
         others = bystanders(state, arguments)

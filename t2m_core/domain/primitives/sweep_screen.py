@@ -46,12 +46,19 @@ itself; the table's near placement limit)."""
 TOOL_CLEARANCE = 0.01
 """m: the swept hook and the swept box must stay this far from bystanders and the rack's legs."""
 
-HAND_CLEARANCE = 0.06
-"""m: the EE's straight path must stay this far from the footprint of a bystander or the rack (the
-gripper body around the EE is about this wide at the rack's top-plate height)."""
+HAND_CLEARANCE = 0.10
+"""m: the EE's straight path must stay this far from the footprint of a bystander (the gripper body
+reaches about this far from the EE across its fingers; measured: with 0.06 m it still struck the rack)."""
+
+MAX_FACE_ANGLE = np.pi / 6
+"""rad: the largest angle between the head's face normal and the sweep at which the box follows the
+head; at steeper angles it slides off the face (the heuristic's θ = π/8 is below it)."""
 
 LANDING_CLEARANCE = 0.005
 """m: at the reach pose the hook must be this far from the target's footprint, or it lands on it."""
+
+HEAD_LANDING_DEPTH = 0.01
+"""m: how deep the head's footprint may reach into the target's along the sweep at the reach pose."""
 
 END_MARGIN = 0.03
 """m: how far inside its success region the predicted end of the target must lie."""
@@ -66,6 +73,8 @@ class SweepPrediction:
         hook_end: the hook's geometry at the sweep end.
         target_start: the target's geometry now.
         target_end: the target's predicted geometry after the sweep.
+        target_drift: where it ends if it also slides sideways along the head (Pull: into the crook
+            against the handle); ``target_end`` when no drift is predicted.
         ee_path: ``(2, 2)`` xy of the EE at the reach and at the sweep end, metres.
     """
 
@@ -73,6 +82,7 @@ class SweepPrediction:
     hook_end: ObjectGeometry
     target_start: ObjectGeometry
     target_end: ObjectGeometry
+    target_drift: ObjectGeometry
     ee_path: np.ndarray
 
 
@@ -86,6 +96,7 @@ def predict_sweep(
     ee_path: np.ndarray,
     *,
     along_head_normal: bool = False,
+    into_crook: bool = False,
 ) -> SweepPrediction:
     """Predict the target's end pose: it moves with the hook once the head closes the gap to it.
 
@@ -95,6 +106,7 @@ def predict_sweep(
         ee_path: ``(2, 2)`` EE xy at the reach and the sweep end.
         along_head_normal: the box slides along the head's normal (Push) instead of following the
             sweep (Pull).
+        into_crook: the box may also slide sideways into the crook, up to the handle (Pull).
     """
     quaternion = yaw_to_quat(hook_yaw)
     reach = object_geometry(hook, ObjectPose(hook_reach, quaternion))
@@ -112,7 +124,15 @@ def predict_sweep(
         displacement = float(displacement @ normal) * normal
     end_position = start_pose.position + np.array([displacement[0], displacement[1], 0.0])
     target_end = object_geometry(target, ObjectPose(end_position, start_pose.quaternion))
-    return SweepPrediction(reach, end, target_start, target_end, np.asarray(ee_path, dtype=np.float64))
+    target_drift = target_end
+    if into_crook:
+        handle = reach.footprints[0]
+        across = np.array([-direction[1], direction[0]])
+        if (handle.mean(axis=0) - start_pose.position[:2]) @ across < 0.0:
+            across = -across
+        slide = polygon_distance(handle, target_start.footprints[0]) * across
+        target_drift = object_geometry(target, ObjectPose(end_position + np.array([*slide, 0.0]), start_pose.quaternion))
+    return SweepPrediction(reach, end, target_start, target_end, target_drift, np.asarray(ee_path, dtype=np.float64))
 
 
 def penetration(footprint: np.ndarray, region: np.ndarray, direction: np.ndarray, longest: float = 0.5) -> float:
@@ -134,18 +154,31 @@ def reach_failure(prediction: SweepPrediction) -> str | None:
 
 
 def landing_failure(prediction: SweepPrediction) -> str | None:
-    """``"tipped_over"`` when the hook's handle at the reach pose would come down on the target. (The
-    head's place is fixed by the heuristic's r_reach, which leaves it about 0.01 m from a square-on
-    box; a redraw of y cannot move it.)"""
-    handle = prediction.hook_reach.footprints[0]
-    return "tipped_over" if polygon_distance(handle, prediction.target_start.footprints[0]) < LANDING_CLEARANCE else None
-
-
-def head_covers_target(prediction: SweepPrediction) -> bool:
-    """Whether the target's extent across the sweep lies within the head's, so the head's face
-    pushes it rather than its corner at the joint (which turns the box and sends it sideways)."""
+    """``"tipped_over"`` when the hook at the reach pose would come down on the target: its handle
+    within :data:`LANDING_CLEARANCE` of the target's footprint, or its head more than
+    :data:`HEAD_LANDING_DEPTH` into it along the sweep. (The heuristic's r_reach leaves the head
+    about 0.01 m from a square-on box; a turned box's corner may reach under it by a few mm, which
+    the measured sweeps survive.)"""
+    target = prediction.target_start.footprints[0]
+    if polygon_distance(prediction.hook_reach.footprints[0], target) < LANDING_CLEARANCE:
+        return "tipped_over"
     sweep = (prediction.hook_end.position - prediction.hook_reach.position)[:2]
-    across = np.array([-sweep[1], sweep[0]]) / max(float(np.linalg.norm(sweep)), 1e-12)
+    direction = sweep / max(float(np.linalg.norm(sweep)), 1e-12)
+    if penetration(_head(prediction.hook_reach), target, direction) > HEAD_LANDING_DEPTH:
+        return "tipped_over"
+    return None
+
+
+def face_meets_target(prediction: SweepPrediction) -> bool:
+    """Whether the head's face, not its corner at the joint, meets the target square enough to carry
+    it: the target's extent across the sweep lies within the head's (a corner turns the box and sends
+    it sideways) and the face is within :data:`MAX_FACE_ANGLE` of the sweep."""
+    sweep = (prediction.hook_end.position - prediction.hook_reach.position)[:2]
+    direction = sweep / max(float(np.linalg.norm(sweep)), 1e-12)
+    face_normal = quat_to_matrix(prediction.hook_reach.quaternion)[:2, 0]
+    if abs(float(face_normal @ direction)) < np.cos(MAX_FACE_ANGLE):
+        return False
+    across = np.array([-direction[1], direction[0]])
     head = _head(prediction.hook_reach) @ across
     target = prediction.target_start.footprints[0] @ across
     return bool(target.min() >= head.min() and target.max() <= head.max())
@@ -161,7 +194,8 @@ def sweep_failure(
     """``"disturbed"`` when the swept hook or the swept target comes within :data:`TOOL_CLEARANCE` of
     one of its obstacles, or the EE's path within :data:`HAND_CLEARANCE` of a hand obstacle."""
     hook = [_swept(a, b) for a, b in zip(prediction.hook_reach.footprints, prediction.hook_end.footprints, strict=True)]
-    target = [_swept(prediction.target_start.footprints[0], prediction.target_end.footprints[0])]
+    target_footprints = (prediction.target_start, prediction.target_end, prediction.target_drift)
+    target = [convex_hull_2d(np.concatenate([geometry.footprints[0] for geometry in target_footprints]))]
     for regions, obstacles, clearance in (
         (hook, hook_obstacles, TOOL_CLEARANCE),
         (target, target_obstacles, TOOL_CLEARANCE),
