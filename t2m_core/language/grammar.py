@@ -112,15 +112,33 @@ def skill_list_grammar(
 ) -> str:
     """Grammar of ``['pick(a)', 'place(a, b)', ...]`` with 1..k calls over this scene's objects.
 
-    With ``calls``, entries are exactly those call strings (e.g. the symbolically valid groundings of
-    the described relationships), at most ``min(k, len(calls))`` of them.
+    With ``calls`` (e.g. the symbolically valid groundings of the described relationships), the answer
+    is ``min(k, len(calls))`` distinct entries of ``calls``, in their given order
+    (:func:`call_subset_grammar`).
     """
     if calls:
-        rules = "call ::= " + _alternation([*calls, *([f"{STOP.name}()"] if allow_stop else [])]) + "\n"
-        k = min(k, len(calls) + allow_stop)
-    else:
-        rules = _call_rules(objects, typed, allow_stop)
+        return call_subset_grammar([*calls, *([f"{STOP.name}()"] if allow_stop else [])], k)
+    rules = _call_rules(objects, typed, allow_stop)
     return f'root ::= ws "[" {_repeat("item", 1, k)} "]"\nitem ::= q call q\n' + rules + _COMMON
+
+
+def call_subset_grammar(calls: Sequence[str], k: int = 5) -> str:
+    """Grammar of a list of exactly ``min(k, len(calls))`` distinct entries of ``calls``, in order.
+
+    Rule ``pick-I-J`` writes J entries chosen from ``calls[I:]``: entry I and J - 1 more after it, or
+    J entries from ``calls[I + 1:]``; a small model asked for K candidates then cannot stop at one
+    or repeat an entry.
+    """
+    if not calls:
+        raise ValueError("a call-subset grammar needs at least one call")
+    n, wanted = len(calls), min(k, len(calls))
+    rules = [f'root ::= ws "[" pick-0-{wanted} "]"']
+    for j in range(1, wanted + 1):
+        for i in range(n - j + 1):
+            take = f"q {_literal(calls[i])} q" + (f' "," ws pick-{i + 1}-{j - 1}' if j > 1 else "")
+            skip = f" | pick-{i + 1}-{j}" if n - i - 1 >= j else ""
+            rules.append(f"pick-{i}-{j} ::= {take}{skip}")
+    return "\n".join(rules) + "\n" + _COMMON
 
 
 def skill_sequences_grammar(objects: Sequence[str], k: int = 5, d_max: int = 10, *, typed: bool = False) -> str:

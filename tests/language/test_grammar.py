@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from t2m_core.language.grammar import goal_grammar, skill_list_grammar, skill_sequences_grammar
+from t2m_core.language.grammar import call_subset_grammar, goal_grammar, skill_list_grammar, skill_sequences_grammar
 
 OBJECTS = ("table", "rack", "hook", "red_box")
 
@@ -48,8 +48,41 @@ def test_counted_goal_grammar_fixes_boxes_per_alternative():
     assert 'destination ::= ("rack")' in text and '"under"' not in text
 
 
-def test_skill_list_grammar_over_given_calls():
+def test_skill_list_grammar_over_given_calls_writes_distinct_entries_in_order():
     text = skill_list_grammar(OBJECTS, 5, calls=["pick(hook)", "pick(red_box)"])
-    assert 'call ::= ("pick(hook)" | "pick(red_box)")' in text
-    assert 'root ::= ws "[" item ("," ws item){0,1} "]"' in text  # no more entries than calls
+    assert 'root ::= ws "[" pick-0-2 "]"' in text  # no more entries than calls, and no fewer
+    assert """pick-0-2 ::= q "pick(hook)" q "," ws pick-1-1""" in text
     assert '"place("' not in text
+
+
+def test_call_subset_grammar_languages():
+    """Expand the grammar's rules by hand: exactly the ordered 2-subsets of three calls."""
+    import itertools
+    import re
+
+    text = call_subset_grammar(["a(x)", "b(y)", "c(z)"], k=2)
+    rules = {}
+    for line in text.splitlines():
+        name, _, body = line.partition(" ::= ")
+        rules[name] = [alternative.strip() for alternative in body.split(" | ")]
+
+    def expand(symbol):
+        results = []
+        for alternative in rules[symbol]:
+            parts = [""]
+            for token in re.findall(r'"[^"]*"|[\w-]+', alternative):
+                if token.startswith('"'):
+                    options = [token[1:-1]]
+                elif token in ("q",):
+                    options = ["'"]
+                elif token == "ws":
+                    options = [" "]
+                else:
+                    options = expand(token)
+                parts = [part + option for part in parts for option in options]
+            results += parts
+        return results
+
+    answers = expand("pick-0-2")
+    assert sorted(answers) == sorted(f"'{a}', '{b}'" for a, b in itertools.combinations(["a(x)", "b(y)", "c(z)"], 2))
+    assert 'root ::= ws "[" pick-0-2 "]"' in text

@@ -128,4 +128,4 @@ def test_next_skill_query_over_given_calls_sends_their_grammar():
     model = ScriptedModel(["['pick(hook)']"], grammar=True)
     candidates, _ = query_next_skills(model, "ctx\nQ:", OBJECTS, calls=["pick(hook)", "pick(red_box)"])
     assert [str(c) for c in candidates.calls] == ["pick(hook)"]
-    assert 'call ::= ("pick(hook)" | "pick(red_box)")' in model.grammars[0]
+    assert 'pick-0-2 ::= q "pick(hook)" q' in model.grammars[0]

@@ -105,6 +105,8 @@ def test_grounded_sessions_offer_only_valid_groundings_to_the_next_skill_grammar
     calls, _ = session.generate_next(parse_goal("[['on(red_box, rack)']]"), [])
     assert calls == [SkillCall("pick", ("hook",))]
     if grounded:
-        assert 'call ::= ("pick(hook)" | "pick(red_box)" | "pick(blue_box)")' in model.grammars[0]
+        grammar = model.grammars[0]
+        assert 'root ::= ws "[" pick-0-3 "]"' in grammar  # all three valid picks, nothing else
+        assert all(f'"pick({name})"' in grammar for name in ("hook", "red_box", "blue_box")) and '"place(' not in grammar
     else:
         assert '"place("' in model.grammars[0] and "pick-arg0" in model.grammars[0]
