@@ -85,3 +85,50 @@ def test_reach_at_lift_height_is_the_stretched_arm_not_the_solver(scene):
     beyond = ik.solve(far, ik.target_rotation(0.0), Q_HOME, null_target_facing(far), iterations=400)
     assert not beyond.reachable
     assert -0.7 < beyond.q[3] < -0.3
+
+
+def test_sweep_impedance_is_the_operational_space_law(scene):
+    """SweepImpedance's torques equal Jᵀ·Λ·(K·e − D·v) computed densely from mj_fullM, Λ =
+    (J·M⁻¹·Jᵀ + εI)⁻¹, with the force capped at SOFT_MAX_FORCE and the moment at SOFT_MAX_TORQUE."""
+    from t2m_mujoco import controller
+    from t2m_mujoco.controller import SweepImpedance, rotation_error, rotation_z
+
+    model, robot = scene.model, scene.robot
+    data = mujoco.MjData(model)
+    data.qpos[robot.arm_qpos] = Q_HOME + np.array([0.2, 0.1, -0.1, 0.15, 0.05, -0.1, 0.3])
+    data.qvel[robot.arm_dof] = np.array([0.01, -0.02, 0.005, 0.01, -0.01, 0.02, 0.005])
+    mujoco.mj_forward(model, data)  # M and its factor at this posture
+    site = robot.ee_site
+    position = data.site_xpos[site].copy()
+    rotation = data.site_xmat[site].reshape(3, 3).copy()
+    target_rotation = rotation_z(0.002) @ rotation
+
+    def dense(position_target):
+        jacobian = np.zeros((6, model.nv))
+        mujoco.mj_jacSite(model, data, jacobian[:3], jacobian[3:], site)
+        full = np.zeros((model.nv, model.nv))
+        mujoco.mj_fullM(model, data, full)
+        inertia = np.linalg.inv(jacobian @ np.linalg.solve(full, jacobian.T) + controller.OPERATIONAL_INERTIA_REGULARISATION * np.eye(6))
+        velocity = jacobian @ data.qvel
+        stiffness, damping = controller.SOFT_ORIENTATION_GAINS
+        acceleration = np.concatenate((
+            controller.SOFT_POSITION_GAINS * (position_target - position) - controller.SOFT_VELOCITY_GAINS * velocity[:3],
+            stiffness * rotation_error(target_rotation, rotation) - damping * velocity[3:],
+        ))
+        wrench = inertia @ acceleration
+        force = np.linalg.norm(wrench[:3])
+        if force > controller.SOFT_MAX_FORCE:
+            wrench[:3] *= controller.SOFT_MAX_FORCE / force
+        torque = np.linalg.norm(wrench[3:])
+        if torque > controller.SOFT_MAX_TORQUE:
+            wrench[3:] *= controller.SOFT_MAX_TORQUE / torque
+        return (jacobian.T @ wrench)[robot.arm_dof], force
+
+    impedance = SweepImpedance(model, data, robot)
+    for offset, capped in ((np.array([0.002, 0.0, 0.0]), False), (np.array([0.3, -0.2, 0.0]), True)):
+        expected, force = dense(position + offset)
+        assert bool(force > controller.SOFT_MAX_FORCE) == capped
+        impedance.apply(position + offset, target_rotation)
+        np.testing.assert_allclose(data.qfrc_applied[robot.arm_dof], expected, rtol=1e-9, atol=1e-9)
+    impedance.release()
+    assert not np.any(data.qfrc_applied[robot.arm_dof])
