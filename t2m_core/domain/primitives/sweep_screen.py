@@ -8,10 +8,11 @@ This module predicts those outcomes from the domain's own geometry, so the *scre
 (:meth:`~t2m_core.domain.primitives.hook_sweep.HookSweep.screened_physical`) can redraw them.
 
 The prediction is deliberately simple: once the head has closed the initial gap, the swept box moves
-with it and keeps its yaw. Pulled, it follows the sweep (the crook of the hook holds it); pushed, it
-slides along the angled head's normal, as a frictionless contact would (measured on task1 scenes: a
-box pushed with θ = π/8 drifts sideways by about 0.4 of its forward travel). Margins absorb the
-errors of that model. A screen reason is a prediction only; the primitive's own tests decide success.
+with it and keeps its yaw. Pulled, it follows the sweep, possibly sliding sideways into the hook's
+crook against the handle; pushed, it slides along the angled head's normal, as a frictionless
+contact would (measured on task1 scenes: a box pushed with θ = π/8 drifts sideways by about 0.4 of
+its forward travel). Margins absorb the errors of that model. A screen reason is a prediction
+only; the primitive's own tests decide success.
 """
 
 from __future__ import annotations
