@@ -145,6 +145,7 @@ class LocalLanguageModel:
         self._llama, self._lock = self._loaded.llama, self._loaded.lock
         self.load_time_s = time.perf_counter() - start
         self._grammars: dict[str, Any] = {}
+        self._piece_bytes: dict[int, int] = {}  # token id -> bytes of its piece
         self.name = f"local:{self.model_path.name}"
 
     # ------------------------------------------------------------------------------------------
@@ -208,10 +209,14 @@ class LocalLanguageModel:
     # ------------------------------------------------------------------------------------------
 
     def _token_byte_ends(self, tokens: Sequence[int]) -> list[int]:
-        """Cumulative byte length of the detokenized text after each token."""
-        ends, total = [], 0
+        """Cumulative byte length of the detokenized text after each token (piece lengths are
+        remembered per token id: a prompt of 2,000 tokens then costs dictionary lookups, not 2,000
+        detokenize calls)."""
+        ends, total, pieces = [], 0, self._piece_bytes
         for token in tokens:
-            total += len(self._llama.detokenize([token]))
+            if token not in pieces:
+                pieces[token] = len(self._llama.detokenize([token]))
+            total += pieces[token]
             ends.append(total)
         return ends
 
@@ -238,26 +243,31 @@ class LocalLanguageModel:
         common = min(len(tokens) for tokens in full)
         for tokens in full[1:]:
             common = next((index for index in range(common) if tokens[index] != first[index]), common)
-        ends = self._token_byte_ends(first[:common])
-        shared = next((index for index, end in enumerate(ends) if end > boundary), common)
+        shared, prompt_bytes = self._split_at_boundary(first[:common], boundary)
         if shared == 0:
             raise ValueError("scoring needs a non-empty context before the candidates")
-        # The cached prompt ends one token before the first token that covers candidate bytes, so
-        # its last logits predict each candidate's first token.
-        base = shared - 1
-        boundary_in_suffix = boundary - (ends[base - 1] if base else 0)
-        suffixes = [list(tokens[base:]) for tokens in full]
+        # The cached prompt ends before the first token that covers candidate bytes; its last logits
+        # predict each candidate's first token.
+        boundary_in_suffix = boundary - prompt_bytes
+        suffixes = [list(tokens[shared:]) for tokens in full]
         with self._lock:
             if self._loaded.scorer is None:
                 self._loaded.scorer = TrieScorer(llama)
             try:
-                rows = self._loaded.scorer.log_probs(first[:base], suffixes)
-            except ValueError as error:  # the scorer's only ValueError: prompt + candidates exceed n_ctx
+                rows = self._loaded.scorer.log_probs(first[:shared], suffixes)
+            except ValueError as error:  # the scorer's only ValueError here: prompt + candidates exceed n_ctx
                 raise T2MError(str(error), hint=CONTEXT_HINT) from error
         return [self._sum_candidate(suffix, row, boundary_in_suffix) for suffix, row in zip(suffixes, rows, strict=True)]
 
+    def _split_at_boundary(self, tokens: Sequence[int], boundary: int) -> tuple[int, int]:
+        """``(n, bytes)``: the first ``n`` tokens end at or before byte ``boundary`` (the next one
+        covers a byte after it) and span ``bytes`` bytes."""
+        ends = self._token_byte_ends(tokens)
+        count = next((index for index, end in enumerate(ends) if end > boundary), len(tokens))
+        return count, ends[count - 1] if count else 0
+
     def _sum_candidate(self, suffix: Sequence[int], log_probs: np.ndarray, boundary: int) -> float:
         """Σ log p of the suffix tokens that cover bytes at or after ``boundary`` (counted from the
-        start of ``suffix[0]``); ``log_probs[i]`` is that of ``suffix[i + 1]``."""
+        start of ``suffix[0]``); ``log_probs[i]`` is that of ``suffix[i]``."""
         ends = self._token_byte_ends(suffix)
-        return float(sum(log_probs[i] for i in range(len(suffix) - 1) if ends[i + 1] > boundary))
+        return float(sum(log_probs[i] for i in range(len(suffix)) if ends[i] > boundary))

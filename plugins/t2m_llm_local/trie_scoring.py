@@ -59,17 +59,25 @@ class TrieScorer:
         self._context = _internals.LlamaContext(model=llama._model, params=settings, verbose=False)
         self._batch = _internals.LlamaBatch(n_tokens=self.n_batch, embd=0, n_seq_max=int(settings.n_seq_max), verbose=False)
         self._cached: list[int] = []  # tokens held by sequence 0
+        self._last_logits: np.ndarray | None = None  # (V,) float32 logits after all of ``_cached``
 
     def close(self) -> None:
         """Free the context and batch (before the model they belong to)."""
         self._batch.close()
         self._context.close()
 
-    def log_probs(self, prompt: Sequence[int], suffixes: Sequence[Sequence[int]]) -> list[np.ndarray]:
-        """Per candidate, ``(len(suffix) - 1,) float64`` log-probabilities: entry ``i`` is
-        log p(suffix[i + 1] | prompt + suffix[: i + 1]). ``suffix[0]`` is only conditioned on (its
-        own probability needs the prompt's last logits: make it the prompt's last token)."""
-        groups = [suffixes[start : start + self._group] for start in range(0, len(suffixes), self._group)]
+    def log_probs(self, prompt: Sequence[int], continuations: Sequence[Sequence[int]]) -> list[np.ndarray]:
+        """Per continuation, ``(len(continuation),) float64`` log-probabilities: entry ``i`` is
+        log p(continuation[i] | prompt + continuation[:i]). ``prompt`` must not be empty; a repeated
+        prompt is neither decoded again nor are its last logits recomputed."""
+        if not prompt:
+            raise ValueError("scoring needs a non-empty prompt")
+        # The trie's root is the prompt's last token (cached, never decoded here); its logits predict
+        # every continuation's first token. Candidates go in token order, so a set of candidates is
+        # decoded in the same batch layout (and rounded alike) whatever order it comes in.
+        order = sorted(range(len(continuations)), key=lambda index: list(continuations[index]))
+        rooted = [[prompt[-1], *continuations[index]] for index in order]
+        groups = [rooted[start : start + self._group] for start in range(0, len(rooted), self._group)]
         tries = [self._trie(group) for group in groups]
         largest = max((len(nodes) for nodes, _ in tries), default=0)
         if len(prompt) + largest > self.n_ctx:
@@ -77,63 +85,81 @@ class TrieScorer:
                 f"a prompt of {len(prompt)} tokens and {largest} candidate tokens exceed the context of {self.n_ctx}"
             )
         self._hold_prompt(list(prompt))
-        results: list[np.ndarray] = []
+        ordered: list[np.ndarray] = []
         for group, trie in zip(groups, tries, strict=True):
-            results.extend(self._score_group(len(prompt), group, trie))
+            ordered.extend(self._score_group(len(prompt) - 1, group, trie))
+        results: list[np.ndarray] = [np.empty(0)] * len(order)
+        for rank, index in enumerate(order):
+            results[index] = ordered[rank]
         return results
 
     # ------------------------------------------------------------------------------------------
 
     def _hold_prompt(self, prompt: list[int]) -> None:
-        """Make sequence 0 hold exactly ``prompt``, decoding only what the cache does not share."""
+        """Make sequence 0 hold exactly ``prompt`` and keep its last logits, decoding only what the
+        cache does not share (the last token again when its logits are not kept)."""
+        if self._cached == prompt and self._last_logits is not None:
+            return
         reuse = 0
-        limit = min(len(self._cached), len(prompt))
+        limit = min(len(self._cached), len(prompt) - 1)
         while reuse < limit and self._cached[reuse] == prompt[reuse]:
             reuse += 1
         self._context.kv_cache_seq_rm(0, reuse, -1)
-        self._cached = prompt[:reuse]
+        self._cached, self._last_logits = prompt[:reuse], None
         for start in range(reuse, len(prompt), self.n_batch):
             chunk = prompt[start : start + self.n_batch]
-            self._fill(((token, start + offset, (0,), False) for offset, token in enumerate(chunk)))
+            last = start + len(chunk) == len(prompt)
+            self._fill(((token, start + offset, (0,), last and offset == len(chunk) - 1) for offset, token in enumerate(chunk)))
             self._context.decode(self._batch)
             self._cached = prompt[: start + len(chunk)]
+        self._last_logits = np.ctypeslib.as_array(self._context.get_logits(), shape=(1, self.n_vocab))[0].copy()
 
     def _score_group(
         self, base: int, suffixes: Sequence[Sequence[int]], trie: tuple[list[_TrieNode], dict[int, int]]
     ) -> list[np.ndarray]:
-        """Score up to ``max_sequences - 1`` candidates as sequences 1..n over the prompt of ``base``
-        tokens; ``trie`` is :meth:`_trie` of ``suffixes``."""
+        """Score up to ``max_sequences - 1`` rooted candidates (the prompt's last token, then the
+        continuation) as sequences 1..n; the root sits at position ``base``; ``trie`` is
+        :meth:`_trie` of ``suffixes``."""
         nodes, roots = trie
-        # log p(child | node) for every node that has children, filled batch by batch
+        # log p(child | node) for every node that has children: the root's from the kept logits,
+        # the others' filled batch by batch
         child_log_probs: list[dict[int, float]] = [{} for _ in nodes]
+        root = roots[suffixes[0][0]]
+        self._collect(self._last_logits[None, :], [root], nodes, child_log_probs)
         context = self._context
         for sequence in range(1, len(suffixes) + 1):
-            context.kv_cache_seq_cp(0, sequence, 0, base)
+            context.kv_cache_seq_cp(0, sequence, 0, base + 1)
         try:
-            decoded = [index for index, node in enumerate(nodes) if node.children]
+            decoded = [index for index, node in enumerate(nodes) if node.children and node.depth > 0]
             for start in range(0, len(decoded), self.n_batch):
                 chunk = decoded[start : start + self.n_batch]
                 self._fill((nodes[i].token, base + nodes[i].depth, nodes[i].sequences, True) for i in chunk)
                 context.decode(self._batch)
                 logits = np.ctypeslib.as_array(context.get_logits(), shape=(len(chunk), self.n_vocab))
-                top = logits.max(axis=1)
-                # float32 exponentials summed in float64: 5x faster than exponentials in float64, and
-                # equal to 1e-8 nats (every term is at most 1 after the shift)
-                normaliser = top + np.log(np.exp(logits - top[:, None]).sum(axis=1, dtype=np.float64))
-                for row, index in enumerate(chunk):
-                    for token in nodes[index].children:
-                        child_log_probs[index][token] = float(logits[row, token]) - float(normaliser[row])
+                self._collect(logits, chunk, nodes, child_log_probs)
         finally:
             for sequence in range(1, len(suffixes) + 1):
                 context.kv_cache_seq_rm(sequence, -1, -1)
         results = []
         for suffix in suffixes:
-            values, node = np.empty(max(len(suffix) - 1, 0)), 0
+            values, node = np.empty(len(suffix) - 1), root
             for i in range(len(suffix) - 1):
-                node = nodes[node].children[suffix[i]] if i else roots[suffix[0]]
+                if i:
+                    node = nodes[node].children[suffix[i]]
                 values[i] = child_log_probs[node][suffix[i + 1]]
             results.append(values)
         return results
+
+    @staticmethod
+    def _collect(logits: np.ndarray, rows: Sequence[int], nodes: list[_TrieNode], child_log_probs: list[dict[int, float]]) -> None:
+        """Store log p(child | node) for the nodes ``rows`` from their ``(len(rows), V) float32`` logits."""
+        top = logits.max(axis=1)
+        # float32 exponentials summed in float64: 5x faster than exponentials in float64, and equal
+        # to 1e-8 nats (every term is at most 1 after the shift)
+        normaliser = top + np.log(np.exp(logits - top[:, None]).sum(axis=1, dtype=np.float64))
+        for row, index in enumerate(rows):
+            for token in nodes[index].children:
+                child_log_probs[index][token] = float(logits[row, token]) - float(normaliser[row])
 
     @staticmethod
     def _trie(suffixes: Sequence[Sequence[int]]) -> tuple[list[_TrieNode], dict[int, int]]:
