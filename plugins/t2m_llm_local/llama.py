@@ -232,12 +232,6 @@ class LocalLanguageModel:
         llama = self._llama
         boundary = len(prompt.encode("utf-8"))
         full = [llama.tokenize((prompt + candidate).encode("utf-8"), add_bos=False, special=False) for candidate in candidates]
-        for candidate, tokens in zip(candidates, full, strict=True):
-            if len(tokens) + 1 > self.options.n_ctx:
-                raise T2MError(
-                    f"scoring prompt for {candidate!r} has {len(tokens)} tokens, more than the context of {self.options.n_ctx}",
-                    hint=CONTEXT_HINT,
-                )
         # Shared prefix: tokens common to every full tokenization that end before the candidate.
         first = full[0]
         common = min(len(tokens) for tokens in full)

@@ -79,7 +79,7 @@ class TrieScorer:
         rooted = [[prompt[-1], *continuations[index]] for index in order]
         groups = [rooted[start : start + self._group] for start in range(0, len(rooted), self._group)]
         tries = [self._trie(group) for group in groups]
-        largest = max((len(nodes) for nodes, _ in tries), default=0)
+        largest = max((len(nodes) for nodes in tries), default=0)
         if len(prompt) + largest > self.n_ctx:
             raise ValueError(
                 f"a prompt of {len(prompt)} tokens and {largest} candidate tokens exceed the context of {self.n_ctx}"
@@ -114,18 +114,14 @@ class TrieScorer:
             self._cached = prompt[: start + len(chunk)]
         self._last_logits = np.ctypeslib.as_array(self._context.get_logits(), shape=(1, self.n_vocab))[0].copy()
 
-    def _score_group(
-        self, base: int, suffixes: Sequence[Sequence[int]], trie: tuple[list[_TrieNode], dict[int, int]]
-    ) -> list[np.ndarray]:
+    def _score_group(self, base: int, suffixes: Sequence[Sequence[int]], nodes: list[_TrieNode]) -> list[np.ndarray]:
         """Score up to ``max_sequences - 1`` rooted candidates (the prompt's last token, then the
-        continuation) as sequences 1..n; the root sits at position ``base``; ``trie`` is
-        :meth:`_trie` of ``suffixes``."""
-        nodes, roots = trie
+        continuation) as sequences 1..n; the root sits at position ``base``; ``nodes`` is
+        :meth:`_trie` of ``suffixes``, node 0 the root."""
         # log p(child | node) for every node that has children: the root's from the kept logits,
         # the others' filled batch by batch
         child_log_probs: list[dict[int, float]] = [{} for _ in nodes]
-        root = roots[suffixes[0][0]]
-        self._collect(self._last_logits[None, :], [root], nodes, child_log_probs)
+        self._collect(self._last_logits[None, :], [0], nodes, child_log_probs)
         context = self._context
         for sequence in range(1, len(suffixes) + 1):
             context.kv_cache_seq_cp(0, sequence, 0, base + 1)
@@ -142,7 +138,7 @@ class TrieScorer:
                 context.kv_cache_seq_rm(sequence, -1, -1)
         results = []
         for suffix in suffixes:
-            values, node = np.empty(len(suffix) - 1), root
+            values, node = np.empty(len(suffix) - 1), 0
             for i in range(len(suffix) - 1):
                 if i:
                     node = nodes[node].children[suffix[i]]
@@ -162,26 +158,29 @@ class TrieScorer:
                 child_log_probs[index][token] = float(logits[row, token]) - float(normaliser[row])
 
     @staticmethod
-    def _trie(suffixes: Sequence[Sequence[int]]) -> tuple[list[_TrieNode], dict[int, int]]:
+    def _trie(suffixes: Sequence[Sequence[int]]) -> list[_TrieNode]:
         """Trie nodes in breadth-first order (a node after its parent, so a batch split keeps the
-        causal order) and the roots by token; candidate ``k`` is sequence ``k + 1``."""
-        nodes: list[_TrieNode] = []
-        roots: dict[int, int] = {}
+        causal order); every suffix starts with the same root token, node 0. Candidate ``k`` is
+        sequence ``k + 1``."""
+        nodes = [_TrieNode(suffixes[0][0], 0)]
         for sequence, suffix in enumerate(suffixes, start=1):
-            parent = None
-            for depth, token in enumerate(suffix):
-                siblings = roots if parent is None else nodes[parent].children
-                if token not in siblings:
-                    siblings[token] = len(nodes)
+            if suffix[0] != nodes[0].token:
+                raise ValueError("every rooted candidate must start with the prompt's last token")
+            node = 0
+            nodes[0].sequences.append(sequence)
+            for depth, token in enumerate(suffix[1:], start=1):
+                children = nodes[node].children
+                if token not in children:
+                    children[token] = len(nodes)
                     nodes.append(_TrieNode(token, depth))
-                parent = siblings[token]
-                nodes[parent].sequences.append(sequence)
-        order = sorted(range(len(nodes)), key=lambda index: nodes[index].depth)
+                node = children[token]
+                nodes[node].sequences.append(sequence)
+        order = sorted(range(len(nodes)), key=lambda index: nodes[index].depth)  # stable: the root stays 0
         renumber = {old: new for new, old in enumerate(order)}
         ordered = [nodes[old] for old in order]
         for node in ordered:
             node.children = {token: renumber[child] for token, child in node.children.items()}
-        return ordered, {token: renumber[root] for token, root in roots.items()}
+        return ordered
 
     def _fill(self, tokens) -> None:
         """Write ``(token, position, sequence ids, wants logits)`` rows into the batch."""

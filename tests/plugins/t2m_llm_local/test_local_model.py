@@ -91,6 +91,10 @@ def test_conformance_and_single_load_per_process(local_model):
 def test_context_overflow_is_a_clear_error(local_model):
     with pytest.raises(T2MError, match="exceeds the context"):
         local_model.complete("word " * 5000, max_tokens=10)
+    # scoring refuses before decoding anything, with the same hint
+    with pytest.raises(T2MError, match="exceed the context") as refused:
+        local_model.score("word " * 5000 + ":", [" pick(red_box)"])
+    assert "n_ctx" in refused.value.hint
 
 
 def test_missing_model_file_is_a_clear_error(tmp_path):

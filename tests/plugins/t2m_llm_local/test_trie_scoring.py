@@ -11,11 +11,12 @@ SUFFIXES = [[7, 1, 2, 3], [7, 1, 2, 4, 5], [7, 1, 6], [7, 1, 2, 3, 9]]
 
 
 def test_trie_shares_prefixes_and_orders_parents_first():
-    nodes, roots = TrieScorer._trie(SUFFIXES)
+    nodes = TrieScorer._trie(SUFFIXES)
     # 7-1-2-3-9, 2-4-5 and 1-6 branch off: 8 distinct nodes for 17 tokens
     assert len(nodes) == 8
-    assert list(roots) == [7]
-    assert sorted(nodes[roots[7]].sequences) == [1, 2, 3, 4]
+    assert nodes[0].token == 7 and nodes[0].depth == 0
+    assert [node.depth for node in nodes].count(0) == 1
+    assert sorted(nodes[0].sequences) == [1, 2, 3, 4]
     depths = [node.depth for node in nodes]
     assert depths == sorted(depths)
     for index, node in enumerate(nodes):
@@ -23,8 +24,13 @@ def test_trie_shares_prefixes_and_orders_parents_first():
             assert child > index and nodes[child].depth == node.depth + 1
             assert set(nodes[child].sequences) <= set(node.sequences)
     # the node for [7, 1, 2, 3] ends candidate 1 and continues candidate 4
-    three = nodes[nodes[nodes[roots[7]].children[1]].children[2]].children[3]
+    three = nodes[nodes[nodes[0].children[1]].children[2]].children[3]
     assert sorted(nodes[three].sequences) == [1, 4] and list(nodes[three].children) == [9]
+
+
+def test_trie_refuses_candidates_with_another_root():
+    with pytest.raises(ValueError, match="prompt's last token"):
+        TrieScorer._trie([[7, 1], [8, 1]])
 
 
 CONTEXT = "Objects: table, rack, red_box, blue_box, hook\nExecuted action:"
