@@ -1,6 +1,6 @@
 """The symbolic side of the four skills: signatures, calls, parsing, validity, preconditions and
-effects on symbolic states, and the enumerations of skill-data generation (tableenv.md §11.1-§11.2,
-text2motion.md §2.2, §9.2, §10.9).
+effects on symbolic states (text2motion.md §2.2, §9.2, §10.9). The enumerations of skill-data
+generation live in :mod:`t2m_core.domain.enumeration`.
 
 Symbolic states here are sets of :class:`Proposition` (on/under/inhand plus, where a rule needs it,
 zone propositions such as ``beyondworkspace(rack)``).
@@ -8,7 +8,6 @@ zone propositions such as ``beyondworkspace(rack)``).
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
@@ -20,7 +19,7 @@ from t2m_core.domain.literals import (
     parse_string_lists,
 )
 from t2m_core.domain.objects import OBJECTS, ObjectKind, object_spec
-from t2m_core.domain.predicates import Proposition, canonical_order
+from t2m_core.domain.predicates import Proposition
 from t2m_core.errors import T2MError
 
 MOVABLE = frozenset({ObjectKind.BOX, ObjectKind.HOOK})
@@ -153,7 +152,7 @@ def parse_skill_call(text: str, object_names: Sequence[str] | None = None, *, al
     call = SkillCall(name.lower(), args)
     problems = syntax_problems(call, object_names, allow_stop=allow_stop)
     if problems:
-        raise SkillError(f"invalid skill call {call}: {'; '.join(problems)}", _signature_hint(allow_stop))
+        raise SkillError(f"invalid skill call {call}: {'; '.join(problems)}", signature_hint(allow_stop))
     return call
 
 
@@ -196,7 +195,7 @@ def format_skill_sequence(calls: Iterable[SkillCall]) -> str:
     return format_string_list([str(c) for c in calls])
 
 
-def _signature_hint(allow_stop: bool) -> str:
+def signature_hint(allow_stop: bool) -> str:
     signatures = [str(s) for s in SKILLS.values()] + ([str(STOP)] if allow_stop else [])
     return f"available skills: {', '.join(signatures)}"
 
@@ -241,7 +240,7 @@ def validate_skill_call(call: SkillCall, object_names: Sequence[str], *, check_t
     if not problems and check_types:
         problems = check_argument_types(call)
     if problems:
-        raise SkillError(f"invalid skill call {call}: {'; '.join(problems)}", _signature_hint(False))
+        raise SkillError(f"invalid skill call {call}: {'; '.join(problems)}", signature_hint(False))
 
 
 # --------------------------------------------------------------------------------------------------
@@ -311,97 +310,3 @@ def apply_effects(call: SkillCall, state: Iterable[Proposition | str]) -> Symbol
     elif call.name == "push":
         facts.add(Proposition("under", (a, call.args[2])))
     return frozenset(facts)
-
-
-# --------------------------------------------------------------------------------------------------
-# Enumerations of skill-data generation (§11.1, §11.2)
-# --------------------------------------------------------------------------------------------------
-
-DATA_MOVABLES: tuple[str, ...] = ("hook", "red_box", "blue_box", "yellow_box", "cyan_box")
-"""The five movable objects of the data-generation scene, in enumeration order."""
-
-
-@dataclass(frozen=True)
-class SymbolicState:
-    """One enumerated symbolic state of skill-data generation.
-
-    Attributes:
-        objects: present objects in observation order (table, rack, then present movables).
-        propositions: its propositions in canonical order (aligned, poslimit, zone, on, inhand).
-    """
-
-    objects: tuple[str, ...]
-    propositions: tuple[Proposition, ...]
-
-    @property
-    def facts(self) -> SymbolicFacts:
-        """The propositions as a set."""
-        return frozenset(self.propositions)
-
-    @property
-    def rack_zone(self) -> str:
-        """``"inworkspace"`` or ``"beyondworkspace"``."""
-        return next(p.predicate for p in self.propositions if p.args == ("rack",) and p.predicate.endswith("workspace"))
-
-
-def enumerate_symbolic_states() -> tuple[SymbolicState, ...]:
-    """The 1 296 symbolic states of §11.1: each movable absent, in hand, on the table or on the rack
-    (at most one in hand: 648 assignments), times the rack in or beyond the workspace. The rack is
-    always on the table, aligned and poslimit."""
-    states = []
-    for zone in ("inworkspace", "beyondworkspace"):
-        for assignment in itertools.product(("absent", "inhand", "table", "rack"), repeat=len(DATA_MOVABLES)):
-            if assignment.count("inhand") > 1:
-                continue
-            present = [m for m, where in zip(DATA_MOVABLES, assignment) if where != "absent"]
-            props = [
-                Proposition("aligned", ("rack",)),
-                Proposition("poslimit", ("rack",)),
-                Proposition(zone, ("rack",)),
-                Proposition("on", ("rack", "table")),
-            ]
-            for movable, where in zip(DATA_MOVABLES, assignment):
-                if where == "inhand":
-                    props.append(Proposition("inhand", (movable,)))
-                elif where != "absent":
-                    props.append(Proposition("on", (movable, where)))
-            states.append(SymbolicState(("table", "rack", *present), canonical_order(props)))
-    return tuple(states)
-
-
-def candidate_groundings(skill: str, object_names: Sequence[str]) -> tuple[SkillCall, ...]:
-    """Every grounding of ``skill`` considered by data generation: pick over every object; place and
-    pull over ordered pairs of distinct objects; push over ordered pairs of distinct
-    non-receptacles with each receptacle as the third argument. (These reproduce the original's
-    task counts, see :func:`enumerate_groundings`.)"""
-    if skill == "pick":
-        return tuple(SkillCall("pick", (a,)) for a in object_names)
-    if skill in ("place", "pull"):
-        return tuple(SkillCall(skill, pair) for pair in itertools.permutations(object_names, 2))
-    if skill == "push":
-        receptacles = [n for n in object_names if _kind(n) in RECEPTACLE]
-        others = [n for n in object_names if _kind(n) not in RECEPTACLE]
-        return tuple(
-            SkillCall("push", (a, b, c)) for c in receptacles for a, b in itertools.permutations(others, 2)
-        )
-    raise SkillError(f"unknown skill {skill!r}", _signature_hint(False))
-
-
-def enumerate_groundings(
-    skill: str, state: SymbolicState
-) -> tuple[tuple[SkillCall, ...], tuple[SkillCall, ...]]:
-    """``(valid, invalid)`` groundings of ``skill`` in an enumerated state (§11.2).
-
-    A push whose only failing condition is "the rack is beyond the workspace" is in neither set:
-    it is symbolically sensible but not trained. Over the 1 296 states this gives the original's
-    counts: pick 1 620 / 5 562, place 1 620 / 32 292, pull 216 / 33 696, push 108 / 21 924.
-    """
-    valid, invalid = [], []
-    rack_only = {f"{c} is not beyond the workspace" for c in state.objects if _kind(c) in RECEPTACLE}
-    for call in candidate_groundings(skill, state.objects):
-        problems = precondition_problems(call, state.facts)
-        if not problems:
-            valid.append(call)
-        elif not set(problems) <= rack_only:
-            invalid.append(call)
-    return tuple(valid), tuple(invalid)

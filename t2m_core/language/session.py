@@ -15,7 +15,8 @@ from dataclasses import dataclass, field
 from t2m_core.domain.goals import Goal
 from t2m_core.domain.literals import LiteralSyntaxError, parse_string_lists
 from t2m_core.domain.predicates import GOAL_PREDICATES, Proposition, canonical_order
-from t2m_core.domain.skills import SKILLS, SkillCall, SkillError, apply_effects, candidate_groundings, precondition_problems
+from t2m_core.domain.enumeration import candidate_groundings
+from t2m_core.domain.skills import SKILLS, SkillCall, SkillError, apply_effects, precondition_problems
 from t2m_core.language.parsing import Attempt, GoalQuery, inst, query_goal, query_next_skills, query_skill_sequences
 from t2m_core.language.prompts import K, HistoryStep, PromptBuilder, scoring_request
 from t2m_core.language.scene_description import SceneDescription

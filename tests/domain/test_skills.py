@@ -8,15 +8,13 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from t2m_core.domain.predicates import PREDICATE_ORDER, Proposition
+from t2m_core.domain.enumeration import candidate_groundings, enumerate_groundings, enumerate_symbolic_states
 from t2m_core.domain.skills import (
     SKILLS,
     SkillCall,
     SkillError,
     apply_effects,
-    candidate_groundings,
     check_argument_types,
-    enumerate_groundings,
-    enumerate_symbolic_states,
     format_skill_sequence,
     is_valid_grounding,
     parse_skill_call,
