@@ -19,7 +19,8 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=10)
     args = parser.parse_args()
 
-    from t2m_core.cli.sim_cmd import resolve_simulator, run_demo
+    from t2m_core.cli.sim_cmd import resolve_simulator
+    from t2m_core.demo import run_demo
     from t2m_core.tasks import load_task
 
     sim = resolve_simulator(args.sim)

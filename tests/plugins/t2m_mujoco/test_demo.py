@@ -1,16 +1,13 @@
-
 import numpy as np
 import pytest
+from typer.testing import CliRunner
 
-pytest.importorskip("mujoco")
-
-from typer.testing import CliRunner  # noqa: E402
-
-from t2m_core.cli.main import app  # noqa: E402
-from t2m_core.cli.sim_cmd import run_demo, search_skeleton  # noqa: E402
-from t2m_core.tasks import load_task  # noqa: E402
-from t2m_mujoco.options import MujocoOptions  # noqa: E402
-from t2m_mujoco.simulator import MujocoSimulator  # noqa: E402
+from t2m_core.cli.main import app
+from t2m_core.demo import run_demo
+from t2m_core.skeleton_search import search_skeleton
+from t2m_core.tasks import load_task
+from t2m_mujoco.options import MujocoOptions
+from t2m_mujoco.simulator import MujocoSimulator
 
 
 @pytest.mark.slow

@@ -1,11 +1,10 @@
+import mujoco
 import numpy as np
 import pytest
 
-mujoco = pytest.importorskip("mujoco")
-
-from t2m_mujoco.controller import InverseKinematics, null_target_facing  # noqa: E402
-from t2m_mujoco.robot_model import EE_OFFSET_FROM_LINK7, Q_HOME  # noqa: E402
-from t2m_mujoco.scene import build_scene  # noqa: E402
+from t2m_mujoco.controller import InverseKinematics, null_target_facing
+from t2m_mujoco.robot_model import EE_OFFSET_FROM_LINK7, Q_HOME
+from t2m_mujoco.scene import build_scene
 
 
 @pytest.fixture(scope="module")

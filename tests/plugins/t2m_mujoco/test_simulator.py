@@ -1,13 +1,11 @@
 import numpy as np
 import pytest
 
-pytest.importorskip("mujoco")
-
-from t2m_core.domain.primitives import get_primitive  # noqa: E402
-from t2m_core.tasks import load_task  # noqa: E402
-from t2m_core.testing import check_simulator  # noqa: E402
-from t2m_mujoco.options import MujocoOptions  # noqa: E402
-from t2m_mujoco.simulator import MujocoSimulator  # noqa: E402
+from t2m_core.domain.primitives import get_primitive
+from t2m_core.tasks import load_task
+from t2m_core.testing import check_simulator
+from t2m_mujoco.options import MujocoOptions
+from t2m_mujoco.simulator import MujocoSimulator
 
 
 @pytest.fixture(scope="module")
