@@ -5,10 +5,10 @@
 
 Scenes come from the tasks (same cases as sim_throughput.py): one distinct scene per sample, the setup skills
 (e.g. picking the hook by its handle's tail before a pull) not counted, then one
-heuristic (the reference's, §10), one screened-heuristic (``Primitive.screened_action``, the data-generation
+heuristic (the reference's), one screened-heuristic (``Primitive.screened_action``, the data-generation
 sampler: heuristic draws that pass an analytic screen of the domain geometry) and one uniform execution
 from that same snapshot. ``--scenes evaluation`` measures the
-tableenv.md §12.5 evaluation scenes instead (feasible instances: ``free``, ``nonblocking``), where
+evaluation scenes (docs/guide/skills.md#evaluation-scenes) instead (feasible instances: ``free``, ``nonblocking``), where
 they differ from the task scenes (Pull).
 """
 

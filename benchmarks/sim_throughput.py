@@ -45,7 +45,7 @@ HANDLE_CENTRE_GRASP = (0.0, -0.09, 0.0, 0.0)
 0.2-0.4 m behind a box in the operational zone: a grasp on the tail would put the EE within 0.2 m of
 the base, where the arm cannot reach the table, and one near the head pushes the hand under the
 rack's top plate (measured: 28 % heuristic successes at the centre, 12 % at 0.1 m ahead of it). Choosing the grasp a primitive can use
-mirrors the feasible-instance evaluation scenes of tableenv.md §12.5."""
+mirrors the feasible-instance evaluation scenes (docs/guide/skills.md#evaluation-scenes)."""
 
 CASES = {  # primitive -> (task, objects kept or None, setup skills with a physical action or None, measured call)
     "pick": ("task0", None, [], ("pick", ("yellow_box",))),
@@ -64,8 +64,8 @@ PULL_EVALUATION_STATE = (
     "beyondworkspace(blue_box)", "nonblocking(blue_box, rack)",
     "on(rack, table)", "on(hook, table)", "on(blue_box, table)",
 )
-"""The tableenv.md §12.5 Pull evaluation scene: the box beyond the workspace and not blocked by the
-rack, the hook free in the workspace. (The Push case above already is its §12.5 scene: task1's
+"""The Pull evaluation scene (docs/guide/skills.md#evaluation-scenes): the box beyond the workspace and not blocked by the
+rack, the hook free in the workspace. (The Push case above already is its evaluation scene: task1's
 propositions about the cyan box, which is in the operational zone, in front of the rack and
 nonblocking.)"""
 
@@ -75,7 +75,7 @@ EVALUATION_CASES = {
 
 
 def evaluation_scene(objects: tuple[str, ...], propositions: tuple[str, ...]):
-    """A single-skill scene with the given objects and initial state (tableenv.md §12.5)."""
+    """A single-skill scene with the given objects and initial state."""
     from types import SimpleNamespace
 
     from t2m_core.domain.predicates import Proposition

@@ -41,7 +41,7 @@ class ResetResult:
 
     Attributes:
         state: the settled, verified geometric state.
-        observation: ``(8, 12) float32`` raw observation (tableenv.md §9.1).
+        observation: ``(8, 12) float32`` raw observation (docs/guide/world.md#observation-encoding).
         accepted_seed: the seed whose sample was accepted (``seed``, ``seed + 1``, ...).
         rejections: how many candidate seeds were rejected before it.
     """
@@ -130,8 +130,8 @@ class Simulator(Protocol):
 class Skill(Protocol):
     """One entry of a skill library: a primitive plus its learned models.
 
-    States are the 96-D skill-specific encodings of tableenv.md §9.3 (argument-first, normalised);
-    actions are normalised to ``[-1, 1]``. All methods are batched.
+    States are the 96-D skill-specific encodings (argument-first, normalised;
+    docs/guide/skills.md#state-encodings); actions are normalised to ``[-1, 1]``. All methods are batched.
     """
 
     name: str
@@ -149,7 +149,7 @@ class Skill(Protocol):
         ...
 
     def predict(self, states: Any, actions: Any) -> Any:
-        """Predicted next dynamics state ``(N, 96)`` (tableenv.md §12.3)."""
+        """Predicted next dynamics state ``(N, 96)`` (docs/guide/skills.md#dynamics)."""
         ...
 
 
@@ -160,7 +160,7 @@ class Skill(Protocol):
 
 @dataclass(frozen=True)
 class PlanResult:
-    """Output of a feasibility planner for a skill sequence of length ``T`` (tableenv.md §13.1).
+    """Output of a feasibility planner for a skill sequence of length ``T`` (docs/guide/feasibility.md#interface).
 
     Attributes:
         actions: ``(T, 4) float32`` normalised parameters.

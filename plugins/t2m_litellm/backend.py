@@ -1,6 +1,6 @@
 """The litellm backend: generation through any provider, and candidate scoring.
 
-Scoring (text2motion.md §11.2, §11.4):
+Scoring (docs/guide/prompts.md#scores-from-a-language-model):
 
 - ``multiple_choice`` (chat models, approximate): the scoring context with its ``Executed action:``
   line replaced by a labelled candidate list; one answer token at temperature 0 with top-k

@@ -1,6 +1,6 @@
 """The embedded language model: a GGUF model run in-process by llama.cpp (llama-cpp-python).
 
-Scoring is exact (text2motion.md §11.3): the shared context is evaluated once, and each candidate's
+Scoring is exact (docs/guide/prompts.md#scores-from-a-language-model): the shared context is evaluated once, and each candidate's
 tokens are decoded on top of that cached prefix with logits for every position; ℓ_k is the sum of
 the log-softmax of the candidate's tokens. Tokens are found by byte offsets in the tokenization of
 the *full* string (context + candidate), never by tokenizing the candidate alone, because the

@@ -43,7 +43,7 @@ class RunSettings(BaseModel):
     closed_loop: bool = Field(
         True,
         description="Re-optimise the remaining skills' parameters from the observed state after every "
-        "executed skill (tableenv.md §13.5); false executes the open-loop plan.",
+        "executed skill (docs/guide/feasibility.md#closed-loop-execution); false executes the open-loop plan.",
     )
 
 
@@ -62,7 +62,7 @@ class RunConfig(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     task: str = Field("task0", min_length=1, description="Task name from `t2m tasks` (task0 ... task6).")
-    seed: int = Field(0, ge=0, description="Base seed; the accepted seed may be larger (tasks.md §5).")
+    seed: int = Field(0, ge=0, description="Base seed; the accepted seed may be larger (seed, seed + 1, ...).")
     simulator: ComponentConfig = Field(
         default_factory=lambda: ComponentConfig(name="mujoco"), description="Physics backend."
     )

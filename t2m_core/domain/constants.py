@@ -1,4 +1,4 @@
-"""Workspace constants and zones of the TableEnv world (tableenv.md §5, §6, §10.1).
+"""Workspace constants and zones of the TableEnv world (docs/guide/world.md#constants-and-zones).
 
 Distances in metres, angles in radians. Every number here is the reference's default; a change
 alters which scenes are sampled and which skills succeed, so none of them is a tuning knob.
@@ -12,13 +12,13 @@ from dataclasses import dataclass
 import numpy as np
 
 # --------------------------------------------------------------------------------------------------
-# Table and workspace (§2, §5)
+# Table and workspace
 # --------------------------------------------------------------------------------------------------
 
 TABLE_Z_MAX = 0.00
 """Table top height; an object whose centre is below it has fallen off ("below the table")."""
 TABLE_X_RANGE = (-0.30, 0.90)
-"""Full x extent of the table top (§2)."""
+"""Full x extent of the table top."""
 TABLE_X_MIN = 0.28
 """Near (robot-side) limit of table placements and of the random robot pose."""
 TABLE_Y_MIN, TABLE_Y_MAX = -0.45, 0.45
@@ -34,18 +34,18 @@ WORKSPACE_RADIUS = 0.70
 MAX_LIFT_HEIGHT = 0.40
 """z of every pre- and post-waypoint of every skill; also the reference of the ``inhand`` test."""
 MAX_LIFT_RADIUS = 0.70
-"""Far x limit of table placements (quirk Q20: the table reaches 0.90, placements stop here)."""
+"""Far x limit of table placements: the table reaches 0.90, placements stop here, as in the original."""
 TABLE_PLACE_X_RANGE = (TABLE_X_MIN, MAX_LIFT_RADIUS)
-"""x range of the Place action's table rectangle (§10.4)."""
+"""x range of the Place action's table rectangle."""
 
 # --------------------------------------------------------------------------------------------------
-# Tolerances (§5, §6, §10.1)
+# Tolerances
 # --------------------------------------------------------------------------------------------------
 
 EPS_AABB = 0.05
 """Tolerance of the ``above`` test: min_z(a) > max_z(b) − 0.05."""
 EPS_ALIGN = 0.99
-"""Uprightness threshold on (R·ẑ)·ẑ (tilt ≤ ≈ 8.1°; quirk Q1)."""
+"""Uprightness threshold on (R·ẑ)·ẑ (tilt ≤ ≈ 8.1°; docs/guide/deviations.md#uprightness-is-a-tilt-test)."""
 EPS_TWIST = 0.001
 """An object is moving when any twist component is ≥ this (m/s or rad/s)."""
 EPS_TIPPING = 0.1
@@ -53,21 +53,20 @@ EPS_TIPPING = 0.1
 ON_CONTACT_GAP = 0.04
 """``on(a, b)`` requires |min_z(a) − max_z(b)| < 0.04."""
 DISTURBANCE_TRANSLATION = 0.05
-"""A non-argument object that moved ≥ 0.05 m was disturbed (§6 ``did_move``)."""
+"""A non-argument object that moved ≥ 0.05 m was disturbed (``did_move``)."""
 DISTURBANCE_ROTATION = math.radians(5.0)
 """… or that rotated ≥ 5° (0.0873 rad)."""
 
 D_PULL = 0.05
 """Minimum decrease of a pulled box's planar distance to the base, metres.
 
-⚠ Sources differ (quirk Q16): the Text2Motion appendix states 0.05 m, the original implementation
-used 0.01 m. The published value is the default; primitives take it as a parameter."""
+The published 0.05 m is the default; the original used 0.01 m, and primitives take it as a
+parameter (docs/guide/deviations.md#pull-and-push-displacement)."""
 D_PUSH = 0.05
-"""Minimum increase of a pushed box's planar distance to the base, metres (Q16: appendix 0.05,
-original 0.01; the appendix is the default)."""
+"""Minimum increase of a pushed box's planar distance to the base, metres (as :data:`D_PULL`)."""
 
 # --------------------------------------------------------------------------------------------------
-# Rack placement (§5 ``poslimit``, §7.1 ``aligned``)
+# Rack placement (``poslimit``, ``aligned``)
 # --------------------------------------------------------------------------------------------------
 
 RACK_POSLIMIT_CENTERS: dict[str, tuple[float, float]] = {
@@ -81,24 +80,24 @@ RACK_POSLIMIT_HALF_WIDTH = 0.01
 ALIGNED_YAW_STD = 0.05
 """Std of the ``aligned`` yaw noise, radians."""
 ALIGNED_YAW_MIN_ABS = 0.002
-"""``aligned`` redraws its noise until |noise| ≥ this (kept for sampling parity; Q1)."""
+"""``aligned`` redraws its noise until |noise| ≥ this (kept for sampling parity with the original)."""
 ALIGNED_YAW_MAX_DEVIATION = 0.1
 """``aligned`` clips the yaw to mean ± 0.1 rad."""
 RACK_ALIGNED_YAW: dict[str, float] = {"inworkspace": 0.5 * math.pi, "beyondworkspace": 0.0}
 """Mean yaw of an aligned rack per zone (0 otherwise)."""
 
 # --------------------------------------------------------------------------------------------------
-# Zones (§5)
+# Zones
 # --------------------------------------------------------------------------------------------------
 
 HOOK_ZONE_MARGIN_SCALE = 0.25
 """Fraction of its half-extent margin applied to the hook in the collision, operational and
-obstruction zones (§5)."""
+obstruction zones."""
 
 
 @dataclass(frozen=True)
 class Zone:
-    """A region of the table, with a sampling box and a membership test (§5).
+    """A region of the table, with a sampling box and a membership test .
 
     The sampling x-range is used when *generating* a pose (y is always the table's); the membership
     test is used when *checking* one. They differ on purpose (e.g. ``inworkspace`` samples
@@ -178,7 +177,7 @@ ZONES: dict[str, Zone] = {
         Zone("inoodzone", (TABLE_X_RANGE[0], TABLE_X_MIN), always_true=True),
     )
 }
-"""The zone predicates of §5, by name, in canonical predicate order."""
+"""The zone predicates, by name, in canonical predicate order."""
 
 DEFAULT_ZONE = Zone("default", (TABLE_X_MIN, TABLE_X_RANGE[1]), always_true=True)
 """Sampling box of a table placement with no zone predicate: x ∈ [0.28, 0.90]."""

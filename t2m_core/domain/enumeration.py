@@ -1,5 +1,5 @@
 """Enumerations over symbolic states: every grounding of a skill in a scene, and the 1 296 symbolic
-states and valid / invalid groundings of skill-data generation (tableenv.md §11.1-§11.2)."""
+states and valid / invalid groundings of skill-data generation (docs/guide/skills.md#data-generation)."""
 
 from __future__ import annotations
 
@@ -52,7 +52,7 @@ class SymbolicState:
 
 
 def enumerate_symbolic_states() -> tuple[SymbolicState, ...]:
-    """The 1 296 symbolic states of §11.1: each movable absent, in hand, on the table or on the rack
+    """The 1 296 symbolic states of skill-data generation: each movable absent, in hand, on the table or on the rack
     (at most one in hand: 648 assignments), times the rack in or beyond the workspace. The rack is
     always on the table, aligned and poslimit."""
     states = []
@@ -97,7 +97,7 @@ def candidate_groundings(skill: str, object_names: Sequence[str]) -> tuple[Skill
 def enumerate_groundings(
     skill: str, state: SymbolicState
 ) -> tuple[tuple[SkillCall, ...], tuple[SkillCall, ...]]:
-    """``(valid, invalid)`` groundings of ``skill`` in an enumerated state (§11.2).
+    """``(valid, invalid)`` groundings of ``skill`` in an enumerated state.
 
     A push whose only failing condition is "the rack is beyond the workspace" is in neither set:
     it is symbolically sensible but not trained. Over the 1 296 states this gives the original's

@@ -1,4 +1,4 @@
-"""Rotations and the analytic geometric tests of the TableEnv world (tableenv.md §6).
+"""Rotations and the analytic geometric tests of the TableEnv world (docs/guide/world.md#geometric-tests).
 
 Quaternions are ``(x, y, z, w)``; rotation helpers broadcast over leading axes (``(..., 4)``).
 The object tests work on :class:`ObjectGeometry`, the world-frame corners, AABB and xy footprint of
@@ -172,8 +172,8 @@ def tilt_cosine(q: np.ndarray) -> float | np.ndarray:
 
 
 def is_upright(q: np.ndarray) -> bool | np.ndarray:
-    """Tilt test of quirk Q1: (R·ẑ)·ẑ ≥ 0.99 (tilt ≤ ≈ 8.1°). Unlike the original's axis test, an
-    unrotated object is upright."""
+    """Tilt test: (R·ẑ)·ẑ ≥ 0.99 (tilt ≤ ≈ 8.1°). Unlike the original's axis test, an unrotated object
+    is upright (docs/guide/deviations.md#uprightness-is-a-tilt-test)."""
     value = np.asarray(tilt_cosine(q)) >= EPS_ALIGN
     return bool(value) if value.ndim == 0 else value
 
@@ -184,7 +184,7 @@ def did_move(
     position_after: np.ndarray,
     quat_after: np.ndarray,
 ) -> bool | np.ndarray:
-    """The disturbance test (§6): translation ≥ 0.05 m or rotation ≥ 5°. Broadcasts over ``(..., 3)``
+    """The disturbance test: translation ≥ 0.05 m or rotation ≥ 5°. Broadcasts over ``(..., 3)``
     positions and ``(..., 4)`` quaternions."""
     shift = np.linalg.norm(np.asarray(position_after, float) - np.asarray(position_before, float), axis=-1)
     turn = np.asarray(quat_angle(quat_before, quat_after))
@@ -332,7 +332,7 @@ class ObjectGeometry:
     def bounding_box_footprint(self) -> np.ndarray:
         """``(K, 2)`` xy projection of the object's whole rotated bounding box. For a box and the
         rack it equals their single convex part; ``nonblocking`` also treats the hook as this one
-        hull (quirk Q5)."""
+        hull, as the original did."""
         low, high = self.spec.local_bounds()
         corners = (low + (high - low) * (_BOX_SIGNS + 1) / 2) @ quat_to_matrix(self.quaternion).T + self.position
         return convex_hull_2d(corners[:, :2])

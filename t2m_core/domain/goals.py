@@ -1,4 +1,4 @@
-"""Goals: disjunctions of conjunctions of on/under/inhand propositions (text2motion.md §3.4, §4, §5).
+"""Goals: disjunctions of conjunctions of on/under/inhand propositions (docs/guide/world.md#goals).
 
 A language model answers ``[['on(red_box, rack)', 'on(blue_box, rack)'], ['on(red_box, rack)']]``;
 :func:`parse_goal` turns that into a :class:`Goal`, :func:`validate_goal` checks it against the
@@ -129,7 +129,7 @@ def parse_goal(text: str, *, extract: bool = False) -> Goal:
 
 
 def grounded_propositions(object_names: Sequence[str]) -> tuple[Proposition, ...]:
-    """𝒫 (text2motion.md §3.4): inhand(x) for every object, on(x, y) and under(x, y) for every
+    """𝒫, the propositions a goal may use: inhand(x) for every object, on(x, y) and under(x, y) for every
     ordered pair of distinct objects, the table included."""
     props = [Proposition("inhand", (x,)) for x in object_names]
     for x, y in itertools.permutations(object_names, 2):
@@ -157,7 +157,7 @@ def validate_goal(goal: Goal, object_names: Sequence[str]) -> None:
 
 
 def goal_satisfied(goal: Goal, state: GeometricState, object_names: Sequence[str] | None = None) -> bool:
-    """F_sat (text2motion.md §5): some alternative holds entirely under the geometry-only checks.
+    """F_sat: some alternative holds entirely under the geometry-only checks.
     Used on predicted states; ``on`` does not require uprightness."""
     return goal.satisfied_by(symbolic_state(state, object_names))
 
@@ -165,7 +165,7 @@ def goal_satisfied(goal: Goal, state: GeometricState, object_names: Sequence[str
 def goal_satisfied_full(
     goal: Goal, state: GeometricState, context: Iterable[Proposition | str] = ()
 ) -> bool:
-    """Ground-truth task success (tasks.md §6.1): some alternative holds under the full checks
+    """Ground-truth task success: some alternative holds under the full checks
     (``on`` requires uprightness unless ``tippable`` is in ``context``)."""
     scene = Scene(state, context)
     return any(all(evaluate(p, scene, full=True) for p in alternative) for alternative in goal.alternatives)

@@ -183,7 +183,7 @@ def _parse_string(text: str, pos: int) -> tuple[str, int]:
 
 def extract_first_list(text: str) -> str:
     """The first balanced ``[...]`` in free text (brackets inside quoted strings are ignored), as
-    language-model answers often wrap the list in prose (text2motion.md §10.9).
+    language-model answers often wrap the list in prose (docs/guide/prompts.md#parsing-and-validation).
 
     Raises:
         LiteralSyntaxError: when no ``[`` exists or the first list is never closed.

@@ -1,4 +1,4 @@
-"""Object specifications of the TableEnv world (tableenv.md §2, §4): exact geometry, mass, colour and
+"""Object specifications of the TableEnv world (docs/guide/world.md#frames-and-objects): exact geometry, mass, colour and
 the static shape features that enter the observation.
 
 Frames: every object's origin is the centre of its bounding box, except the table and the rack, whose
@@ -54,7 +54,7 @@ class CylinderPart:
 
 @dataclass(frozen=True)
 class HookGeometry:
-    """The L-shaped hook's parameters (tableenv.md §4.3), metres except ``handle_y`` (a sign/scale)."""
+    """The L-shaped hook's parameters, metres except ``handle_y`` (a sign/scale)."""
 
     head_length: float = 0.20
     handle_length: float = 0.38
@@ -63,7 +63,7 @@ class HookGeometry:
 
     @property
     def lateral_offset(self) -> float:
-        """``dy`` of §4.3: ½·sign(handle_y)·max(0, (|handle_y| − 1)·h/2 + r) (−0.01 for the default)."""
+        """Lateral offset ``dy`` of the head: ½·sign(handle_y)·max(0, (|handle_y| − 1)·h/2 + r) (−0.01 for the default)."""
         h, r = self.head_length, self.radius
         return 0.5 * float(np.sign(self.handle_y)) * max(0.0, (abs(self.handle_y) - 1.0) * h / 2 + r)
 
@@ -77,7 +77,7 @@ class HookGeometry:
         )
 
     def footprint(self) -> tuple[BoxPart, ...]:
-        """The two boxes used by the geometric tests (§4.3): handle 0.40 × 0.04 and head 0.04 × 0.22."""
+        """The two boxes used by the geometric tests: handle 0.40 × 0.04 and head 0.04 × 0.22."""
         h, l_, r = self.head_length, self.handle_length, self.radius
         handle_y_center = self.handle_y * h / 2 - self.lateral_offset + 0.0
         return (
@@ -98,7 +98,7 @@ class ObjectSpec:
     Attributes:
         name: the object's name in tasks, prompts and goals (``"red_box"``).
         kind: its symbolic type.
-        size: ``(3,)`` bounding-box extents in metres (the table's is its slab; the hook's §4.3).
+        size: ``(3,)`` bounding-box extents in metres (the table's is its slab).
         mass: kilograms (0 for static bodies).
         rgba: display colour.
         hook: hook parameters, only for the hook.
@@ -117,7 +117,7 @@ class ObjectSpec:
         return self.kind in (ObjectKind.BOX, ObjectKind.HOOK)
 
     def shape_features(self) -> np.ndarray:
-        """``(6,) float32`` static observation features (indices 6–11 of a row, tableenv.md §9.2):
+        """``(6,) float32`` static observation features (indices 6–11 of a row, docs/guide/world.md#observation-encoding):
         box_size xyz for boxes and the rack, head_length, handle_length, handle_y for the hook, zeros
         for the table."""
         features = np.zeros(6, dtype=np.float32)
@@ -142,14 +142,14 @@ class ObjectSpec:
             )
             return (BoxPart("top", (sx, sy, 0.01), (0.0, 0.0, -0.005)), *legs, *bars)
         if self.kind is ObjectKind.TABLE:
-            # Offset by the top-surface centre: the table's reported pose is the identity (§2).
+            # Offset by the top-surface centre: the table's reported pose is the identity.
             return (BoxPart("slab", self.size, (*TABLE_CENTER_XY, -self.size[2] / 2)),)
         if self.kind is ObjectKind.HOOK and self.hook is not None:
             return self.hook.footprint()
         return (BoxPart("body", self.size, (0.0, 0.0, 0.0)),)
 
     def convex_parts(self) -> tuple[BoxPart, ...]:
-        """The convex boxes that the geometric tests of tableenv.md §6 use, object frame: the box
+        """The convex boxes that the geometric tests use, object frame: the box
         itself, the rack's full bounding box (not its 7 parts), the hook's two footprint boxes, the
         table's slab."""
         if self.kind is ObjectKind.RACK:
@@ -184,7 +184,7 @@ OBJECTS: dict[str, ObjectSpec] = {
         ObjectSpec("cyan_box", ObjectKind.BOX, (0.058, 0.058, 0.070), 0.1, (0.0, 1.0, 1.0, 1.0)),
     )
 }
-"""Every object of the world, by name (tableenv.md §4.1)."""
+"""Every object of the world, by name."""
 
 
 def object_spec(name: str) -> ObjectSpec:

@@ -1,4 +1,4 @@
-"""The observation and state vectors the learned models see (tableenv.md §9, §12.3).
+"""The observation and state vectors the learned models see (docs/guide/world.md#observation-encoding, docs/guide/skills.md#state-encodings).
 
 - raw observation: ``(8, 12) float32``; row 0 the end effector (pose relative to home), rows 1..N
   the present objects in task order, the rest zeros;
@@ -23,7 +23,7 @@ from t2m_core.domain.state import GeometricState, ObjectPose
 OBSERVATION_ROWS = 8
 """Rows of the raw observation: the end effector plus at most 7 objects."""
 FEATURES = 12
-"""Features per row (§9.2)."""
+"""Features per row."""
 MAX_OBJECTS = OBSERVATION_ROWS - 1
 """Objects that fit in an observation."""
 STATE_DIM = OBSERVATION_ROWS * FEATURES
@@ -32,7 +32,7 @@ STATIC_FEATURES = slice(6, 12)
 """Shape features (box size, hook dimensions): constant for a rigid object."""
 
 FEATURE_LOW = np.array([-0.3, -0.5, -0.1, -np.pi, -np.pi, -np.pi, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0], dtype=np.float32)
-"""``(12,)`` lower normalisation bound per feature (§9.2): x, y, z (m), axis-angle (rad), box size
+"""``(12,)`` lower normalisation bound per feature: x, y, z (m), axis-angle (rad), box size
 (m), head length, handle length (m), handle_y."""
 FEATURE_HIGH = np.array([0.9, 0.5, 0.5, np.pi, np.pi, np.pi, 0.4, 0.4, 0.2, 0.3, 0.5, 1.0], dtype=np.float32)
 """``(12,)`` upper normalisation bound per feature."""
@@ -43,7 +43,7 @@ class ObservationError(ValueError):
 
 
 # --------------------------------------------------------------------------------------------------
-# Raw observation (§9.1-§9.2)
+# Raw observation
 # --------------------------------------------------------------------------------------------------
 
 
@@ -64,7 +64,7 @@ def encode_observation(state: GeometricState, object_names: Sequence[str] | None
     for row, name in enumerate(names, start=1):
         spec = object_spec(name)
         if spec.kind is ObjectKind.TABLE:
-            continue  # identity pose, no shape features: an all-zero row (§2; models depend on it)
+            continue  # identity pose, no shape features: an all-zero row (models depend on it)
         pose = state.objects[name]
         observation[row, :3] = pose.position
         observation[row, 3:6] = quat_to_axis_angle(pose.quaternion)
@@ -119,7 +119,7 @@ def unnormalize(normalized: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------------------------------
-# Argument-first order (§9.3)
+# Argument-first order
 # --------------------------------------------------------------------------------------------------
 
 
@@ -187,10 +187,11 @@ def _reorder(observation: np.ndarray, orders: np.ndarray) -> np.ndarray:
 
 
 def skill_state(observation: np.ndarray, row_order: RowOrder, rng: np.random.Generator | None = None) -> np.ndarray:
-    """Policy / Q-function input (§9.3): ``(..., 8, 12)`` → ``(..., 96) float32``.
+    """Policy / Q-function input: ``(..., 8, 12)`` → ``(..., 96) float32``.
 
     The non-argument rows are shuffled (independently per sample) only when ``rng`` is given: during
-    training. Planning passes no ``rng`` and gets the fixed task order (quirk Q6).
+    training. Planning passes no ``rng`` and gets the fixed task order
+    (docs/guide/deviations.md#planning-time-row-order).
     """
     obs = _check_observation(observation)
     reordered = _reorder(obs, _row_orders(row_order, obs.shape[:-2], rng))
@@ -198,13 +199,13 @@ def skill_state(observation: np.ndarray, row_order: RowOrder, rng: np.random.Gen
 
 
 def dynamics_state(observation: np.ndarray, row_order: RowOrder) -> np.ndarray:
-    """Dynamics input (§9.4): argument-first, never shuffled, normalised. ``(..., 8, 12)`` →
+    """Dynamics input: argument-first, never shuffled, normalised. ``(..., 8, 12)`` →
     ``(..., 96) float32``."""
     return skill_state(observation, row_order, rng=None)
 
 
 def decode_dynamics_prediction(prediction: np.ndarray, observation: np.ndarray, row_order: RowOrder) -> np.ndarray:
-    """Map a dynamics prediction back to a raw observation (§12.3 steps 2-5).
+    """Map a dynamics prediction back to a raw observation (docs/guide/skills.md#state-encodings).
 
     Clamp to [−0.5, 0.5], un-normalise, scatter the rows back to their raw positions, copy the static
     features (indices 6-11) from the input (objects are rigid) and zero the rows beyond the present

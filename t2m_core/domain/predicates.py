@@ -1,9 +1,9 @@
 """Predicates of the TableEnv world: propositions, their value() checks, the canonical order and the
-symbolic state (tableenv.md §7, text2motion.md §3).
+symbolic state (docs/guide/world.md#predicates).
 
-Two flavours of check (tableenv.md §7.2):
+Two flavours of check:
 
-- *geometry only* (``full=False``): the tests of §6 on poses; used by the language layer, also on
+- *geometry only* (``full=False``): the geometric tests on poses; used by the language layer, also on
   predicted states. ``on`` does not require uprightness.
 - *full* (``full=True``, the default of :func:`evaluate`): as simulated task success and resets use
   it; ``on(a, b)`` also requires a to be upright unless ``tippable(a)`` is in the context.
@@ -51,7 +51,7 @@ PREDICATE_ORDER: tuple[str, ...] = (
     "on",
     "inhand",
 )
-"""Canonical predicate order (§7.3): initial states are sampled in this order (``on`` before ``inhand``)."""
+"""Canonical predicate order (docs/guide/world.md#canonical-order): initial states are sampled in this order (``on`` before ``inhand``)."""
 
 PREDICATE_ARITY: dict[str, int] = {
     name: (2 if name in ("under", "infront", "nonblocking", "on") else 1) for name in PREDICATE_ORDER
@@ -59,13 +59,13 @@ PREDICATE_ARITY: dict[str, int] = {
 """Number of arguments of every predicate."""
 
 GOAL_PREDICATES: tuple[str, ...] = ("on", "under", "inhand")
-"""The only predicates of goals, the language interface and task success (§7.2)."""
+"""The only predicates of goals, the language interface and task success."""
 
 RELATION_ORDER: tuple[str, ...] = ("under", "on", "inhand")
-"""Order of predicates in a symbolic state (text2motion.md §3.3: the original's output order)."""
+"""Order of predicates in a symbolic state (the original's output order)."""
 
 ZONE_PREDICATES: tuple[str, ...] = tuple(ZONES)
-"""The zone predicates of §5, in canonical order."""
+"""The zone predicates, in canonical order."""
 
 
 class PropositionError(T2MError, ValueError):
@@ -115,7 +115,7 @@ class Proposition:
 
 
 def canonical_order(propositions: Iterable[Proposition | str]) -> tuple[Proposition, ...]:
-    """Sort by :data:`PREDICATE_ORDER`, keeping the given order within one predicate (§7.3)."""
+    """Sort by :data:`PREDICATE_ORDER`, keeping the given order within one predicate."""
     props = [Proposition.coerce(p) for p in propositions]
     return tuple(sorted(props, key=lambda p: p.canonical_rank))  # sorted() is stable
 
@@ -150,12 +150,12 @@ def validate_proposition(
 
 
 # --------------------------------------------------------------------------------------------------
-# Geometric classifiers on object geometries (tableenv.md §6, text2motion.md §3.2)
+# Geometric classifiers on object geometries
 # --------------------------------------------------------------------------------------------------
 
 
 def is_inhand(obj: ObjectGeometry) -> bool:
-    """inhand(o): origin z > 0.40 − 0.5·size_z (quirk Q3; the rack's origin is its top plate)."""
+    """inhand(o): origin z > 0.40 − 0.5·size_z (the original's live test; the rack's origin is its top plate)."""
     return float(obj.position[2]) > MAX_LIFT_HEIGHT - 0.5 * obj.spec.size[2]
 
 
@@ -171,7 +171,7 @@ def is_on(a: ObjectGeometry, b: ObjectGeometry) -> bool:
 
 
 def is_under(a: ObjectGeometry, b: ObjectGeometry) -> bool:
-    """under(a, b): b is a receptacle (quirk Q13), neither is the table, a is not above b, and the
+    """under(a, b): b is a receptacle (the original required the name "rack"), neither is the table, a is not above b, and the
     footprints intersect. Never true together with on(a, b), which requires above."""
     return (
         a.name != b.name
@@ -195,7 +195,7 @@ FREE_MIN_DISTANCE: dict[frozenset[ObjectKind], float] = {
     frozenset({ObjectKind.BOX, ObjectKind.RACK}): 0.10,
     frozenset({ObjectKind.HOOK, ObjectKind.RACK}): 0.10,
 }
-"""d_min of ``free`` per unordered type pair, metres; unlisted pairs are ignored (§7.1)."""
+"""d_min of ``free`` per unordered type pair, metres; unlisted pairs are ignored."""
 FREE_REDUCED_MIN_DISTANCE = 0.04
 """d_min when the other object is a rack beyond the workspace, or an ``infront(·, rack)`` is involved."""
 
@@ -204,7 +204,7 @@ NONBLOCKING_GROWTH: dict[tuple[ObjectKind, ObjectKind], dict[str | None, float]]
     (ObjectKind.BOX, ObjectKind.BOX): {"inworkspace": 3.0, "beyondworkspace": 3.0, None: 3.0},
     (ObjectKind.RACK, ObjectKind.HOOK): {"inworkspace": 0.25, "beyondworkspace": 0.25, None: 0.25},
 }
-"""``nonblocking(t, o)`` hull growth scale by (t's type, o's type) and o's zone (§7.1): the hull of o
+"""``nonblocking(t, o)`` hull growth scale by (t's type, o's type) and o's zone: the hull of o
 grows by scale·max(size_x, size_y of t). The original applied 1.0 to every pair whose obstacle is in
 neither zone; the reference's table gives Box–Box 3.0 and Rack–Hook 0.25 unconditionally, which we
 follow."""
@@ -283,7 +283,7 @@ def _zone(zone_name: str) -> Callable[..., bool]:
 
     def value(scene: Scene, obj: str, *, full: bool) -> bool:
         if zone_name == "inworkspace" and scene.geometry(obj).spec.kind is ObjectKind.RACK:
-            return True  # the rack is placed by poslimit, never tested against the workspace (§7.1)
+            return True  # the rack is placed by poslimit, never tested against the workspace
         x, y = scene.geometry(obj).position[:2]
         return bool(zone.contains(x, y))
 
@@ -361,7 +361,7 @@ def evaluate(
     *,
     full: bool = True,
 ) -> bool:
-    """The value() check of one proposition (§7.1).
+    """The value() check of one proposition.
 
     Args:
         proposition: e.g. ``"on(red_box, rack)"``.
@@ -372,7 +372,7 @@ def evaluate(
 
     Returns:
         Whether the proposition holds. A proposition about an *absent* object holds (absent objects
-        are neither physical nor observed, §4.4), except the goal predicates, which are false.
+        are neither physical nor observed: docs/guide/world.md#absent-objects), except the goal predicates, which are false.
 
     Raises:
         PropositionError: unknown predicate or wrong arity.
@@ -396,14 +396,14 @@ def holds_all(
     full: bool = True,
 ) -> bool:
     """Whether every proposition holds; the propositions are their own context unless one is given
-    (the reset's final verification, §8.1 step 6)."""
+    (the reset's final verification)."""
     props = [Proposition.coerce(p) for p in propositions]
     view = scene if isinstance(scene, Scene) else Scene(scene, props if context is None else context)
     return all(evaluate(p, view, full=full) for p in props)
 
 
 def symbolic_state(state: GeometricState, object_names: Sequence[str] | None = None) -> tuple[Proposition, ...]:
-    """The true geometry-only relations of a state (text2motion.md §3.3).
+    """The true geometry-only relations of a state (docs/guide/world.md#relations-the-language-model-sees).
 
     Every ``under(x, y)`` and ``on(x, y)`` over ordered pairs of distinct objects, the table included,
     and ``inhand(x)`` for every object. Grouped by predicate (under, on, inhand), then by the object

@@ -1,21 +1,21 @@
-"""Initial-state sampling: a geometric instance of a task's symbolic initial state (tableenv.md §8).
+"""Initial-state sampling: a geometric instance of a task's symbolic initial state (docs/guide/primitives.md#initial-state-sampling).
 
 Given the task's objects and initial-state propositions and a seed, :func:`sample_initial_state`
 tries the seed, seed + 1, ... until one candidate passes. For each candidate seed a NumPy generator
 seeded with it drives every random draw, so the result is a pure function of (objects,
 propositions, seed):
 
-1. process the propositions in canonical order (§7.3), calling each predicate's sampler: markers
+1. process the propositions in canonical order, calling each predicate's sampler: markers
    (``handlegrasp``, ``aligned``, ``tippable``, zones, ``under``, ``infront``) shape the later
    ``on`` samples, ``poslimit`` fixes the rack's position box, ``on`` places an object on its
-   support (§8.2), ``inhand`` puts an object in the gripper at the home pose (§8.3);
-2. draw the random robot pose of §8.1 step 4 (the backend moves the arm there);
+   support, ``inhand`` puts an object in the gripper at the home pose;
+2. draw a random robot pose (the backend moves the arm there);
 3. verify every proposition's ``value()`` (including ``free`` and ``nonblocking``) on the resting
    state; accept or move on to the next seed.
 
 Physics is the backend's job: it loads :attr:`SampledScene.drop_state` (objects 5 cm above their
 supports, as the reference drops them), moves the robot to :attr:`SampledScene.robot_pose`, settles,
-and re-checks the propositions (§8.1 steps 4-6). :attr:`SampledScene.state` is the analytic
+and re-checks the propositions. :attr:`SampledScene.state` is the analytic
 prediction of the settled scene (every object resting on its support), on which this module
 verifies the propositions.
 """
@@ -72,26 +72,26 @@ from t2m_core.domain.state import GeometricState, ObjectPose
 from t2m_core.errors import T2MError
 
 DROP_HEIGHT = 0.05
-"""Objects are dropped from this far above their support (§8.2), metres."""
+"""Objects are dropped from this far above their support, metres."""
 ON_ATTEMPTS = 10
-"""Draws of the ``on`` sampler before it fails and the candidate seed is rejected (§8.2)."""
+"""Draws of the ``on`` sampler before it fails and the candidate seed is rejected."""
 MAX_SEED_ATTEMPTS = 1000
 """Candidate seeds tried before :func:`sample_initial_state` gives up."""
 TIPPED_DROP_SCALE = 0.8
-"""A tipped object is dropped from parent_top + 0.8·max(size_x, size_y) (§7.1 ``tippable``)."""
+"""A tipped object is dropped from parent_top + 0.8·max(size_x, size_y) (``tippable``)."""
 FREE_DISTANCE_HORIZON = 0.15
 """Distances beyond this (metres) need not be exact while sampling: ``free`` thresholds are ≤ 0.10 m."""
 HOME_EE_POSITION = np.array([0.402, 0.0, MAX_LIFT_HEIGHT])
-"""``(3,)`` the home EE pose (tableenv.md §3.1), where ``inhand`` puts the grasp, metres."""
+"""``(3,)`` the home EE pose (docs/guide/world.md#the-robot), where ``inhand`` puts the grasp, metres."""
 
-# Box grasps of the inhand sampler (§8.3) [INFERRED reading of the reference's words]: the grasp
+# Box grasps of the inhand sampler (our concrete reading of the original's words): the grasp
 # point is within ±0.01 m of the box axis in x and y, at least 0.02 m above the bottom and at least
-# 0.04 m below the top (quirk Q2: bounded with the z-extent).
+# 0.04 m below the top (bounded with the z-extent: docs/guide/deviations.md#grasp-height-of-a-box-in-hand).
 BOX_GRASP_LATERAL = 0.01
 BOX_GRASP_MIN_ABOVE_BOTTOM = 0.02
 BOX_GRASP_MIN_BELOW_TOP = 0.04
 # Hook grasps: lateral tolerance, and the 0.011 m finger clearance that keeps a grasp off the other
-# link (the upperhandlegrasp bound x ≤ head_x − r − 0.011 of §7.1, applied to both links).
+# link (the upperhandlegrasp bound x ≤ head_x − r − 0.011, applied to both links).
 HOOK_GRASP_LATERAL = 0.01
 HOOK_GRASP_CLEARANCE = 0.011
 GRASP_YAW_STD = 0.05
@@ -119,7 +119,7 @@ class SampledScene:
             ``held`` set by ``inhand``).
         drop_state: the same scene as a backend loads it before settling: every ``on`` sample
             5 cm above its support (tipped ones higher), held objects in the gripper.
-        robot_pose: the random EE pose the robot moves to before the scene settles (§8.1 step 4).
+        robot_pose: the random EE pose the robot moves to before the scene settles.
         accepted_seed: the seed whose candidate was accepted (record it for reproducibility).
         rejections: how many candidate seeds were rejected before it.
         tipped: objects the ``tippable`` sampler tipped over (their resting pose is approximate).
@@ -154,7 +154,7 @@ def sample_initial_state(
     *,
     max_attempts: int = MAX_SEED_ATTEMPTS,
 ) -> SampledScene:
-    """Sample a geometric state in which every proposition holds (tableenv.md §8).
+    """Sample a geometric state in which every proposition holds.
 
     Args:
         objects: object names in observation order (``table`` first for every task).
@@ -203,7 +203,7 @@ def clear_cache() -> None:
 
 
 def random_robot_pose(rng: np.random.Generator) -> RobotPose:
-    """The random EE pose of §8.1 step 4: xy uniform in [0.28, 0.70] × [−0.45, 0.45] with
+    """The random EE pose a reset moves the robot to: xy uniform in [0.28, 0.70] × [−0.45, 0.45] with
     ‖xy‖ < 0.70 (redrawn until it holds), z = 0.40, yaw uniform in [−π, π)."""
     while True:
         xy = rng.uniform((TABLE_X_MIN, TABLE_Y_MIN), (WORKSPACE_RADIUS, TABLE_Y_MAX))
@@ -332,7 +332,7 @@ class _SceneSampler:
         self.zone.setdefault(obj, ZONES[zone])
 
     def _sample_inhand(self, obj: str) -> None:
-        """§8.3: put ``obj`` in the gripper at the home EE pose with a sampled grasp."""
+        """Put ``obj`` in the gripper at the home EE pose with a sampled grasp."""
         spec = object_spec(obj)
         if not spec.movable:
             return
@@ -384,7 +384,7 @@ class _SceneSampler:
         theta_low, theta_high = Pick.action_low[3], Pick.action_high[3]
         return position, float(np.clip(yaw + rng.normal(0.0, GRASP_YAW_STD), theta_low, theta_high))
 
-    # --- on (§8.2) ----------------------------------------------------------------------------------
+    # --- on -----------------------------------------------------------------------------------------
 
     def _sample_on(self, child: str, parent: str) -> None:
         spec = object_spec(child)
@@ -469,7 +469,9 @@ class _SceneSampler:
 
     def _stable_region(self, child: str, parent: str, quaternion: np.ndarray) -> tuple[np.ndarray, np.ndarray, ObjectPose]:
         """The parent's top rectangle shrunk by the child's half extents in the parent frame; if that
-        is empty in either axis, the fractional bounds of §8.2 for both axes."""
+        is empty in either axis, the fractional bounds
+        [min(0.25ρ, 0.45), max(0.55, min(0.75ρ, 0.95))] of the original for both axes, ρ = child extent /
+        parent extent."""
         frame = self.placed[parent].rest
         parent_low, parent_high = object_spec(parent).local_bounds()
         parent_low, parent_high = parent_low[:2], parent_high[:2]

@@ -1,5 +1,5 @@
 """The symbolic side of the four skills: signatures, calls, parsing, validity, preconditions and
-effects on symbolic states (text2motion.md §2.2, §9.2, §10.9). The enumerations of skill-data
+effects on symbolic states (docs/guide/world.md#skills-symbolic-side). The enumerations of skill-data
 generation live in :mod:`t2m_core.domain.enumeration`.
 
 Symbolic states here are sets of :class:`Proposition` (on/under/inhand plus, where a rule needs it,
@@ -42,7 +42,7 @@ class SkillParameter:
 
     Attributes:
         name: its name in the signature the language model reads (``"a"``, ``"hook"``).
-        kinds: object types it accepts (symbolic validity, §11.2).
+        kinds: object types it accepts (symbolic validity).
         role: a few words for error messages (``"a movable object"``).
     """
 
@@ -71,7 +71,7 @@ class SkillSignature:
 SKILLS: dict[str, SkillSignature] = {
     s.name: s
     for s in (
-        # One argument everywhere (quirk Q12): the support object is not an argument of pick.
+        # One argument everywhere (docs/guide/deviations.md#skills-by-name-pick-with-one-argument): the support object is not an argument of pick.
         SkillSignature(
             "pick", (SkillParameter("a", MOVABLE, "a movable object (box or hook)"),), "grasp a and lift it"
         ),
@@ -99,7 +99,7 @@ SKILLS: dict[str, SkillSignature] = {
         ),
     )
 }
-"""The four TableEnv skills, in the order the prompts list them (index by name, never position: Q11)."""
+"""The four TableEnv skills, in the order the prompts list them (index by name, never position)."""
 
 STOP = SkillSignature("stop", (), "end the episode (myopic baselines only)")
 """``stop()``, accepted by the parsers only with ``allow_stop=True``."""
@@ -135,7 +135,7 @@ class SkillCall:
 
 
 def parse_skill_call(text: str, object_names: Sequence[str] | None = None, *, allow_stop: bool = False) -> SkillCall:
-    """Parse ``"place(red_box,rack)"`` into a :class:`SkillCall` (INST of text2motion.md §9.2).
+    """Parse ``"place(red_box,rack)"`` into a :class:`SkillCall` (INST, docs/guide/planners.md#shared-steps).
 
     The skill name is lower-cased; spacing is free. Checks the skill exists, the number of
     arguments, that arguments are not repeated and, given ``object_names``, that every argument is a
@@ -224,7 +224,7 @@ def syntax_problems(
 
 
 def check_argument_types(call: SkillCall) -> list[str]:
-    """Argument-type problems of a syntactically valid call (§11.2), e.g.
+    """Argument-type problems of a syntactically valid call, e.g.
     ``["pick: table is not a movable object (box or hook)"]``; empty when the types fit."""
     problems = []
     for arg, parameter in zip(call.args, call.signature.parameters):
@@ -244,7 +244,7 @@ def validate_skill_call(call: SkillCall, object_names: Sequence[str], *, check_t
 
 
 # --------------------------------------------------------------------------------------------------
-# Preconditions and effects on symbolic states (§11.2)
+# Preconditions and effects on symbolic states
 # --------------------------------------------------------------------------------------------------
 
 SymbolicFacts = frozenset[Proposition]
@@ -259,7 +259,7 @@ def _facts(state: Iterable[Proposition | str]) -> SymbolicFacts:
 
 
 def precondition_problems(call: SkillCall, state: Iterable[Proposition | str]) -> list[str]:
-    """Why ``call`` is not a symbolically valid grounding in ``state`` (tableenv.md §11.2); empty
+    """Why ``call`` is not a symbolically valid grounding in ``state``; empty
     when it is valid. Argument types are part of validity."""
     facts = _facts(state)
     problems = syntax_problems(call) or check_argument_types(call)
@@ -291,7 +291,7 @@ def precondition_problems(call: SkillCall, state: Iterable[Proposition | str]) -
 
 
 def is_valid_grounding(call: SkillCall, state: Iterable[Proposition | str]) -> bool:
-    """Whether ``call`` is a symbolically valid grounding in ``state`` (§11.2)."""
+    """Whether ``call`` is a symbolically valid grounding in ``state``."""
     return not precondition_problems(call, state)
 
 

@@ -41,7 +41,7 @@ class GeometricState:
             objects appear; the order is the order of observation rows ``1..N``.
         ee_position: ``(3,) float64`` end-effector operational point in metres (world frame).
         ee_quaternion: ``(4,) float64`` end-effector orientation *relative to the home orientation*,
-            ``(x, y, z, w)`` (the identity means top-down at home yaw; tableenv.md §3.1).
+            ``(x, y, z, w)`` (the identity means top-down at home yaw; docs/guide/world.md#the-robot).
         held: name of the object rigidly grasped, or ``None``.
     """
 

@@ -5,10 +5,10 @@ objects that exist.
 Every answer may start with one space (the prompt's query line ends at its colon). Lists are bounded (at most ``max_alternatives`` goal alternatives, ``k`` skills, ``d_max`` skills per
 sequence) so a constrained small model cannot loop until it runs out of tokens.
 
-Goal propositions are restricted to 𝒫 (§3.4) by construction except for ``x = y`` pairs, which
+Goal propositions are restricted to 𝒫 (docs/guide/world.md#goals) by construction except for ``x = y`` pairs, which
 :func:`~t2m_core.domain.goals.validate_goal` still rejects. Skill calls can optionally be typed
 (``pick`` only movable objects, ``push`` only ``box, hook, rack``...); by default any scene object
-fits any argument, as INST (text2motion.md §9.2) leaves semantic validity to the Q-functions.
+fits any argument, as INST (docs/guide/planners.md#shared-steps) leaves semantic validity to the Q-functions.
 """
 
 from __future__ import annotations

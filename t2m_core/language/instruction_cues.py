@@ -5,7 +5,7 @@
 A 0.5B model copies the goal relation of a similar example and does not count: it writes
 ``under(...)`` for "move three of the boxes to the rack" and pairs for any count. These cues feed
 the goal grammar (:func:`t2m_core.language.grammar.goal_grammar`) and the completion of counted,
-lifted goals (:func:`complete_counted_goal`): text2motion.md §4 expresses "two of the boxes" by
+lifted goals (:func:`complete_counted_goal`): a goal expresses "two of the boxes" by
 enumerating the alternatives, so a counted answer is completed to every k-subset of the boxes it
 ranges over. The model still chooses the relation, the destination and (for a described class such
 as "primary colored") which boxes belong to it.
@@ -109,8 +109,8 @@ def count_cue(instruction: str, objects: Sequence[str]) -> CountCue | None:
 
 
 def complete_counted_goal(goal: Goal, cue: CountCue | None) -> Goal:
-    """Every k-subset of the boxes a counted answer ranges over (text2motion.md §4: lifted goals are
-    enumerated).
+    """Every k-subset of the boxes a counted answer ranges over (lifted goals are enumerated:
+    docs/guide/planners.md#goal-prediction).
 
     The answer must be uniform: every alternative moves k distinct boxes with one relation to one
     destination (plus, optionally, ``on(box, table)`` for the boxes it leaves). The boxes ranged over

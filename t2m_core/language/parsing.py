@@ -1,15 +1,15 @@
-"""From model answers to validated goals, skill candidates and skill sequences (text2motion.md §4,
-§9.2, §10.9), with a bounded re-query when an answer does not parse.
+"""From model answers to validated goals, skill candidates and skill sequences
+(docs/guide/prompts.md#parsing-and-validation), with a bounded re-query when an answer does not parse.
 
 Parsing uses the domain's literal grammar (never ``eval``). Validation is against the scene:
 
-- goals: every proposition in 𝒫 of the scene's objects (§3.4); a goal with any invalid proposition
+- goals: every proposition in 𝒫 of the scene's objects; a goal with any invalid proposition
   is rejected as a whole, then re-queried (at most ``retries`` times, default 2, with a one-line note
   naming the problem inserted before the query line);
 - next-skill candidates: each entry is checked by INST (known skill, arity, scene objects, no repeated
   argument; argument types too with ``check_types=True``); invalid entries are dropped and logged,
   duplicates removed, at most K kept; the whole answer is re-queried (once) only when no list parses;
-- skill sequences (shooting): a sequence with any invalid entry is dropped (§9.3).
+- skill sequences (shooting): a sequence with any invalid entry is dropped.
 
 ``query_*`` functions take any :class:`~t2m_core.protocols.LanguageModel`; when it declares
 ``capabilities.grammar`` and ``constrained=True``, decoding is constrained by a GBNF grammar built
@@ -33,9 +33,9 @@ from t2m_core.protocols import LanguageModel
 log = logging.getLogger(__name__)
 
 GOAL_RETRIES = 2
-"""Re-queries after an invalid goal (§4 recommendation), then the episode is a planning failure."""
+"""Re-queries after an invalid goal, then the episode is a planning failure."""
 LIST_RETRIES = 1
-"""Re-queries after an unparseable skill list (§10.9)."""
+"""Re-queries after an unparseable skill list."""
 
 
 @dataclass(frozen=True)
@@ -80,7 +80,7 @@ def parse_goal_answer(text: str, objects: Sequence[str]) -> Goal:
 
 
 def inst(text: str, objects: Sequence[str], *, check_types: bool = False, allow_stop: bool = False) -> SkillCall:
-    """INST (§9.2): the skill call ``text`` names, or :class:`SkillError` naming why it is invalid."""
+    """INST (docs/guide/planners.md#shared-steps): the skill call ``text`` names, or :class:`SkillError` naming why it is invalid."""
     call = parse_skill_call(text, objects, allow_stop=allow_stop)
     if check_types and call.name != "stop":
         problems = check_argument_types(call)
@@ -124,7 +124,7 @@ def parse_skill_sequences(
 ) -> tuple[list[tuple[SkillCall, ...]], list[Rejected]]:
     """Valid skill sequences of a ``[['pick(a)', ...], ...]`` answer (at most ``k``).
 
-    A sequence with any invalid entry, or an empty one, is dropped (§9.3). Duplicates are removed.
+    A sequence with any invalid entry, or an empty one, is dropped. Duplicates are removed.
 
     Raises:
         SkillError: no list can be read from the answer at all.

@@ -1,7 +1,7 @@
 """Prompt builders for goal prediction, shooting, next-skill generation and candidate scoring
-(text2motion.md §10), shared by every planner.
+(docs/guide/prompts.md), shared by every planner.
 
-Layout (§10.2)::
+Layout::
 
     <header lines>                      primitives (planning prompts only), predicates
     <in-context example 1>              objects, relationships, instruction, goal [, plan]
@@ -46,10 +46,10 @@ from t2m_core.language.instruction_cues import RELATION_WORDS
 from t2m_core.language.scene_description import SceneDescription
 
 K = 5
-"""Skills or skill sequences proposed per query (appendix, §9.1)."""
+"""Skills or skill sequences proposed per query (docs/guide/planners.md#constants)."""
 
 PREDICATES = ("on(a, b)", "inhand(a)", "under(a, b)")
-"""Goal predicates in the order the header lists them (§10.1)."""
+"""Goal predicates in the order the header lists them."""
 
 PRIMITIVES_LABEL = "Available primitives: "
 PREDICATES_LABEL = "Available predicates: "
@@ -76,8 +76,8 @@ def next_skill_query(k: int = K) -> str:
     return f"Top {k} valid next robot actions (single python list of primitives):"
 
 
-# Stop sequences and token budgets (§10.4-§10.6). Every answer is one line in the examples, so a
-# newline also ends it (a documented addition: it stops small models that ramble into a new block).
+# Stop sequences and token budgets. Every answer is one line in the examples, so a
+# newline also ends it (docs/guide/deviations.md#a-newline-ends-every-answer: it stops small models that ramble into a new block).
 GOAL_REQUEST: dict[str, Any] = {
     "max_tokens": 200,
     "stop": ["\n", "Available scene objects:", "Human instruction:", PLAN_LABEL.strip()],
@@ -98,7 +98,7 @@ NEXT_SKILL_REQUEST: dict[str, Any] = {"max_tokens": 100, "stop": ["\n"], "temper
 
 @dataclass(frozen=True)
 class Example:
-    """One in-context example (tasks.md §7.2).
+    """One in-context example (docs/guide/prompts.md#in-context-examples).
 
     Attributes:
         objects: scene objects, ``table`` first.
@@ -169,7 +169,7 @@ def _strings(value: Any) -> list[str]:
 
 
 def examples_for_seed(seed: int, examples: Sequence[Example] | None = None) -> tuple[Example, ...]:
-    """All examples, shuffled deterministically by ``seed`` (§10.3: once per run)."""
+    """All examples, shuffled deterministically by ``seed`` (once per run)."""
     ordered = list(load_examples() if examples is None else examples)
     random.Random(seed).shuffle(ordered)
     return tuple(ordered)
@@ -214,7 +214,7 @@ def examples_by_relevance(instruction: str, seed: int, examples: Sequence[Exampl
 
 @dataclass(frozen=True)
 class HistoryStep:
-    """One planned or executed skill in the current block (§10.6).
+    """One planned or executed skill in the current block.
 
     Attributes:
         action: the skill call text, ``"pick(hook)"``.
@@ -275,7 +275,7 @@ class PromptBuilder:
             example plan ends with it).
         order: ``"relevance"`` (default): the seed's shuffle, then the examples most relevant to the
             instruction moved next to the query (:func:`examples_by_relevance`); ``"shuffled"``: the
-            seed's shuffle only, as in the reference. The order is a free choice (§10.3); relevance
+            seed's shuffle only, as in the reference. The order is a free choice; relevance
             order keeps a small model from copying the goal relation of an unrelated last example.
     """
 
@@ -302,7 +302,7 @@ class PromptBuilder:
         return examples_by_relevance(instruction, self.seed, self.example_set)
 
     def goal(self, scene: SceneDescription) -> str:
-        """Goal-prediction prompt (§10.4), ending with the goal query line."""
+        """Goal-prediction prompt, ending with the goal query line."""
         header = _header(planning=False, myopic=False)
         blocks = [_example_block(example, planning=False, myopic=False) for example in self.examples_for(scene.instruction)]
         return _assemble(header, blocks, [*scene.lines(), GOAL_QUERY])
@@ -316,20 +316,21 @@ class PromptBuilder:
         return _assemble(header, blocks, current)
 
     def shooting(self, scene: SceneDescription, goal: Goal | str, history: Sequence[HistoryStep] = ()) -> str:
-        """Shooting prompt (§10.5): K whole sequences, continuing ``history`` when it is not empty."""
+        """Shooting prompt: K whole sequences, continuing ``history`` when it is not empty."""
         return self._planning(scene.instruction, [*self._planning_context(scene, goal, history), shooting_query(self.k)])
 
     def next_skill(self, scene: SceneDescription, goal: Goal | str, history: Sequence[HistoryStep] = ()) -> str:
-        """Next-skill prompt (§10.6): K candidate next skills."""
+        """Next-skill prompt: K candidate next skills."""
         return self._planning(scene.instruction, [*self._planning_context(scene, goal, history), next_skill_query(self.k)])
 
     def scoring_context(self, scene: SceneDescription, goal: Goal | str, history: Sequence[HistoryStep] = ()) -> str:
-        """The next-skill prompt without its query line (§10.7), ending with a newline."""
+        """The next-skill prompt without its query line, ending with a newline."""
         return self._planning(scene.instruction, self._planning_context(scene, goal, history)) + "\n"
 
 
 def scoring_request(context: str, candidates: Sequence[str]) -> tuple[str, list[str]]:
-    """The prompt and continuations to pass to :meth:`LanguageModel.score` (§10.7, §11.3).
+    """The prompt and continuations to pass to :meth:`LanguageModel.score`
+    (docs/guide/prompts.md#scoring-prompt).
 
     The prompt ends with ``Executed action:``; each continuation is ``" " + candidate``, so the
     summed log-probability covers the leading space and every candidate token, with no terminator.

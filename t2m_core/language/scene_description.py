@@ -1,5 +1,6 @@
 """What the language model is told about a scene: its objects and their relationships
-(text2motion.md §3.3, §10.1). Workspace membership is never described (§3.3, REQUIRED)."""
+(docs/guide/world.md#relations-the-language-model-sees). Workspace membership is never described:
+reachability is left to the Q-values."""
 
 from __future__ import annotations
 

@@ -1,5 +1,6 @@
 """Turning candidate log-likelihoods into usefulness scores, and the labelled multiple-choice
-approximation for chat APIs that return only top-k log-probabilities (text2motion.md §7.1, §11.4).
+approximation for chat APIs that return only top-k log-probabilities (docs/guide/planners.md#scores,
+docs/guide/prompts.md#scores-from-a-language-model).
 
 Exact backends return ℓ_k = Σ log p(token) of each candidate after ``Executed action:``; approximate
 ones build a multiple-choice question (:func:`multiple_choice_prompt`), read the label tokens' top-k
@@ -14,10 +15,10 @@ import string
 from collections.abc import Mapping, Sequence
 
 BETA = 0.3
-"""Dampening of the usefulness softmax (appendix, text2motion.md §9.1)."""
+"""Dampening of the usefulness softmax (docs/guide/planners.md#constants)."""
 
 MULTIPLE_CHOICE_ORDERINGS = 3
-"""Cyclic shifts of the candidate order averaged to cancel position bias (§11.4, P = 3)."""
+"""Cyclic shifts of the candidate order averaged to cancel position bias."""
 
 MULTIPLE_CHOICE_QUESTION = "Answer with the single letter of the most useful next action."
 
@@ -63,7 +64,7 @@ def multiple_choice_prompt(context: str, candidates: Sequence[str], order: Seque
     """The scoring context with the query line replaced by a labelled list of candidates.
 
     Args:
-        context: the scoring prompt without its ``Executed action:`` line (text2motion.md §10.7).
+        context: the scoring prompt without its ``Executed action:`` line.
         candidates: candidate skill texts.
         order: ``order[i]`` is the candidate shown under the i-th label.
     """
@@ -86,7 +87,7 @@ def label_logprobs(top_logprobs: Mapping[str, float], labels: Sequence[str]) -> 
 
     Token variants of one label (``"A"``, ``" A"``, ``"A)"``) are combined with log-sum-exp. A label
     missing from the top-k gets the floor ``min(returned) - ln 2``: less likely than anything listed,
-    never impossible (§11.4 step 4).
+    never impossible.
     """
     if not top_logprobs:
         raise ValueError("the backend returned no top log-probabilities for the answer token")
@@ -100,7 +101,7 @@ def label_logprobs(top_logprobs: Mapping[str, float], labels: Sequence[str]) -> 
 
 
 def average_choice_logprobs(per_ordering: Sequence[tuple[Sequence[int], Sequence[float]]], count: int) -> list[float]:
-    """Average candidate probabilities over orderings, then take the log (§11.4 step 5).
+    """Average candidate probabilities over orderings, then take the log.
 
     Args:
         per_ordering: for each ordering, ``(order, label_logprobs)``; ``label_logprobs[i]`` belongs to
@@ -122,7 +123,7 @@ def continuation_logprob(
 ) -> float:
     """Sum of the log-probabilities of the tokens that cover characters in ``[boundary, end)``.
 
-    This is the exact score from echoed prompt log-probabilities (§11.2): tokens are located by their
+    This is the exact score from echoed prompt log-probabilities: tokens are located by their
     character offsets in ``text``, never by looking for a ``:`` token.
 
     Args:

@@ -1,4 +1,4 @@
-"""The language task model (tasks.md §1-§3): what one evaluation task is."""
+"""The language task model (docs/guide/tasks.md#task-files): what one evaluation task is."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ TASK_PROPERTIES: dict[str, str] = {
     "LG": "lifted goal: the instruction names a class or a count, so several goal sets are valid",
     "PAP": "partial affordance perception: a needed precondition shows neither in the instruction nor in the scene",
 }
-"""Task property tags (tasks.md §0)."""
+"""Task property tags: long-horizon, lifted goal, partial affordance perception."""
 
 
 @dataclass(frozen=True)
@@ -26,11 +26,12 @@ class Task:
         id: ``"task0"`` … ``"task6"``.
         name: the original's internal name (``"lh_lg_po_2"``).
         properties: tags of :data:`TASK_PROPERTIES` (``("LH", "LG", "PAP")``).
-        paper_task: the paper's task number this most likely is (tasks.md §4, inferred), or ``None``.
+        paper_task: the paper's task number this most likely is (inferred), or ``None``.
         instruction: the instruction, verbatim.
         objects: object names in observation-row order (``table`` first).
         rack_zone: ``"inworkspace"`` or ``"beyondworkspace"``.
-        initial_state: initial-state propositions in canonical predicate order (tableenv.md §7.3).
+        initial_state: initial-state propositions in canonical predicate order
+            (docs/guide/world.md#canonical-order).
         goal: the ground-truth goal alternatives.
         reference_skeleton: one minimal solution (never shown to the planners).
         source: the file it was loaded from, if any.

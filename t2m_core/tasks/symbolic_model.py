@@ -1,6 +1,7 @@
-"""The workspace-aware symbolic model used for the subgoal-completion metric (tasks.md §6.2).
+"""The workspace-aware symbolic model used for the subgoal-completion metric
+(docs/guide/tasks.md#success-and-subgoal-completion).
 
-Unlike the simple rules of :mod:`t2m_core.domain.skills` (tableenv.md §11.2), this model tracks
+Unlike the simple rules of :mod:`t2m_core.domain.skills`, this model tracks
 workspace zones, ``infront`` and ``nonblocking`` facts, so that e.g. a box beyond the workspace
 must be pulled before it can be picked. Subgoal completion replays the executed skills with it and
 searches breadth-first for the shortest remaining plan (depth ≤ 20, timeout 10 s).
@@ -31,7 +32,7 @@ _KEPT_INITIAL = ("on", "inworkspace", "beyondworkspace", "inoperationalzone", "i
 """Initial-state predicates kept by :func:`initial_facts` (free, aligned and poslimit have no symbolic role)."""
 
 MAX_DEPTH = 20
-"""Breadth-first search depth limit, in skills (tasks.md §6.2)."""
+"""Breadth-first search depth limit, in skills."""
 TIMEOUT_S = 10.0
 """Breadth-first search time limit, seconds."""
 
@@ -61,7 +62,7 @@ def _under_any(facts: Facts, obj: str) -> bool:
 
 
 def applicable(call: SkillCall, facts: Facts) -> bool:
-    """Whether the preconditions of ``call`` hold in ``facts`` (tasks.md §6.2 table)."""
+    """Whether the preconditions of ``call`` hold in ``facts``."""
     if call.name not in SKILLS or len(call.args) != SKILLS[call.name].arity or check_argument_types(call):
         return False
     if len(set(call.args)) != len(call.args):

@@ -39,7 +39,7 @@ def _assert_states_equal(a: Any, b: Any, what: str, atol: float = 0.0) -> None:
 
 
 def check_observation(observation: np.ndarray, state: Any, object_names: Sequence[str]) -> None:
-    """The ``(8, 12) float32`` layout of tableenv.md §9.1 agrees with ``state``."""
+    """The ``(8, 12) float32`` layout (docs/guide/world.md#observation-encoding) agrees with ``state``."""
     from t2m_core.domain.observation import encode_observation
 
     assert isinstance(observation, np.ndarray), f"observation must be a numpy array, got {type(observation)}"

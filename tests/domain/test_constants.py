@@ -1,4 +1,4 @@
-"""Workspace constants and zones (tableenv.md §5)."""
+"""Workspace constants and zones (docs/guide/world.md#constants-and-zones)."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ def test_reference_values() -> None:
     assert (c.MAX_LIFT_HEIGHT, c.WORKSPACE_RADIUS, c.WORKSPACE_X_MIN) == (0.40, 0.70, 0.40)
     assert (c.OPERATIONAL_X_MIN, c.OPERATIONAL_X_MAX, c.OBSTRUCTION_X_MIN) == (0.50, 0.60, 0.575)
     assert (c.EPS_AABB, c.EPS_ALIGN, c.EPS_TWIST, c.EPS_TIPPING) == (0.05, 0.99, 0.001, 0.1)
-    assert (c.D_PULL, c.D_PUSH) == (0.05, 0.05)  # Q16: the appendix's value is the default
+    assert (c.D_PULL, c.D_PUSH) == (0.05, 0.05)  # the published value is the default
     assert c.DISTURBANCE_ROTATION == pytest.approx(math.radians(5))
     assert c.TABLE_PLACE_X_RANGE == (0.28, 0.70)
 

@@ -1,4 +1,4 @@
-"""Rotations, polygons and the analytic object geometry (tableenv.md §4, §6)."""
+"""Rotations, polygons and the analytic object geometry (docs/guide/world.md#geometric-tests)."""
 
 from __future__ import annotations
 
@@ -75,7 +75,7 @@ def test_compose_poses() -> None:
 
 
 def test_upright_is_a_tilt_test() -> None:
-    # Q1: an unrotated object is upright (the original's axis test said it was not).
+    # an unrotated object is upright (the original's axis test said it was not).
     assert g.is_upright(np.array([0.0, 0.0, 0.0, 1.0]))
     assert g.is_upright(g.yaw_to_quat(2.0))
     assert g.is_upright(g.axis_angle_to_quat([math.radians(8.0), 0, 0]))

@@ -1,4 +1,4 @@
-"""Goal parsing, validation and the satisfaction function (text2motion.md §3.4, §4, §5)."""
+"""Goal parsing, validation and the satisfaction function (docs/guide/world.md#goals)."""
 
 from __future__ import annotations
 
@@ -148,7 +148,7 @@ def test_full_success_needs_upright_objects() -> None:
     state = scene(rack=RACK_IN_WORKSPACE, red_box=lying)
     goal = parse_goal("[['on(red_box, rack)']]")
     assert goal_satisfied(goal, state)  # geometry-only: the planner's check on predicted states
-    assert not goal_satisfied_full(goal, state)  # ground truth (tasks.md §6.1)
+    assert not goal_satisfied_full(goal, state)  # ground truth
     assert goal_satisfied_full(goal, state, ["tippable(red_box)"])
 
 

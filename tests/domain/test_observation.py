@@ -1,4 +1,4 @@
-"""Raw observations, skill states and dynamics states (tableenv.md §9, §12.3)."""
+"""Raw observations, skill states and dynamics states (docs/guide/world.md#observation-encoding, docs/guide/skills.md#state-encodings)."""
 
 from __future__ import annotations
 
@@ -95,7 +95,7 @@ def test_normalisation() -> None:
     np.testing.assert_allclose(normalize(FEATURE_LOW), -0.5)
     np.testing.assert_allclose(normalize(FEATURE_HIGH), 0.5)
     zero_row = normalize(np.zeros(12))
-    assert zero_row[0] == pytest.approx(-0.25)  # Q7: an empty row is a constant non-zero vector
+    assert zero_row[0] == pytest.approx(-0.25)  # an empty row is a constant non-zero vector
     assert zero_row[2] == pytest.approx(-1 / 3)
     assert zero_row[6] == pytest.approx(-0.5) and zero_row[11] == pytest.approx(0.0)
     rng = np.random.default_rng(0)
@@ -113,7 +113,7 @@ def test_skill_state_layout() -> None:
     np.testing.assert_allclose(rows[2], normalize(obs[2]))
     np.testing.assert_allclose(rows[3], normalize(obs[1]))  # then the table, then the hook
     np.testing.assert_allclose(rows[4], normalize(obs[3]))
-    np.testing.assert_array_equal(skill_state(obs, order), state)  # no rng: deterministic (Q6)
+    np.testing.assert_array_equal(skill_state(obs, order), state)  # no rng: deterministic
     np.testing.assert_array_equal(dynamics_state(obs, order), state)
 
 

@@ -1,5 +1,5 @@
-"""Predicates: worked examples of tableenv.md §6, the value() checks of §7.1, the canonical order and
-the symbolic state of text2motion.md §3.3."""
+"""Predicates (docs/guide/world.md#predicates): worked examples of the geometric tests, the value()
+checks, the canonical order and the symbolic state."""
 
 from __future__ import annotations
 
@@ -81,7 +81,7 @@ def test_validate_proposition_names_the_problem() -> None:
 
 
 # --------------------------------------------------------------------------------------------------
-# Worked examples (§6)
+# Worked examples of the geometric tests
 # --------------------------------------------------------------------------------------------------
 
 
@@ -116,7 +116,7 @@ def test_lifted_box_is_in_hand_and_on_nothing() -> None:
 
 
 def test_inhand_threshold_uses_half_the_height() -> None:
-    # Q3: centre z > 0.40 − 0.5·size_z (0.341 for the red box).
+    # centre z > 0.40 − 0.5·size_z (0.341 for the red box).
     assert evaluate("inhand(red_box)", scene(red_box=ObjectPose([0.5, 0, 0.342])))
     assert not evaluate("inhand(red_box)", scene(red_box=ObjectPose([0.5, 0, 0.340])))
 
@@ -140,7 +140,7 @@ def test_full_on_requires_uprightness_unless_tippable() -> None:
 
 
 # --------------------------------------------------------------------------------------------------
-# Sampling-time predicates (§7.1)
+# Sampling-time predicates
 # --------------------------------------------------------------------------------------------------
 
 
@@ -251,7 +251,7 @@ def test_unknown_predicate_or_arity_is_an_error() -> None:
 
 
 # --------------------------------------------------------------------------------------------------
-# Symbolic state (text2motion.md §3.3)
+# Symbolic state
 # --------------------------------------------------------------------------------------------------
 
 

@@ -1,4 +1,4 @@
-"""Primitive specifications (tableenv.md §10): action ranges, waypoint geometry against hand-computed
+"""Primitive specifications (docs/guide/primitives.md): action ranges, waypoint geometry against hand-computed
 poses, contact and disturbance lists, mid-sequence checks, post-conditions and action samplers."""
 
 from __future__ import annotations
@@ -388,7 +388,7 @@ def test_push_sequence_guards_and_checks() -> None:
     start = hook_in_hand((0.55, 0.0))
     args = ["red_box", "hook", "rack"]
     steps = PUSH.motion(start, args, PUSH.to_normalized([-0.3, 0.2, 0.0, 0.0]))
-    assert kinds(steps) == ["move", "descend", "sweep", "descend", "lift"]  # no final settle (Q19)
+    assert kinds(steps) == ["move", "descend", "sweep", "descend", "lift"]  # no final settle, as in the original
     np.testing.assert_allclose(steps[1].ee_position, [0.25, -0.09, 0.11], atol=1e-12)
     np.testing.assert_allclose(steps[2].ee_position, [0.45, -0.09, 0.11], atol=1e-12)
     np.testing.assert_allclose(steps[3].ee_position, steps[1].ee_position)

@@ -1,4 +1,4 @@
-"""Initial-state sampling (tableenv.md §8): every task's propositions hold on the sampled state,
+"""Initial-state sampling (docs/guide/primitives.md#initial-state-sampling): every task's propositions hold on the sampled state,
 the samplers' geometry, and determinism per seed."""
 
 from __future__ import annotations

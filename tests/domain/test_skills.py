@@ -1,5 +1,5 @@
 """The symbolic side of the skills: signatures, parsing, validity, effects and the enumerations of
-skill-data generation (tableenv.md §11.1-§11.2, text2motion.md §9.2, §10.9)."""
+skill-data generation (docs/guide/world.md#skills-symbolic-side, docs/guide/skills.md#data-generation)."""
 
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ def facts(*texts: str) -> frozenset[Proposition]:
 
 def test_signatures_as_the_prompts_show_them() -> None:
     assert [str(s) for s in SKILLS.values()] == ["pick(a)", "place(a, b)", "pull(a, hook)", "push(a, hook, rack)"]
-    assert SKILLS["pick"].arity == 1  # Q12
+    assert SKILLS["pick"].arity == 1  # one signature everywhere
 
 
 def test_parse_skill_call_normalises() -> None:
@@ -62,7 +62,7 @@ def test_invalid_skill_calls(text: str, message: str) -> None:
 
 
 def test_syntax_check_leaves_semantics_to_the_q_values() -> None:
-    # INST (text2motion.md §9.2) accepts pick(table): symbolic validity is not its job.
+    # INST accepts pick(table): symbolic validity is not its job.
     call = parse_skill_call("pick(table)", SCENE)
     assert check_argument_types(call) == ["pick: table is not a movable object (box or hook)"]
     with pytest.raises(SkillError, match="table is not a movable object"):
@@ -104,7 +104,7 @@ def test_skill_sequences_round_trip(sequence: list[SkillCall]) -> None:
 
 
 # --------------------------------------------------------------------------------------------------
-# Validity and effects (§11.2)
+# Validity and effects
 # --------------------------------------------------------------------------------------------------
 
 ON_TABLE = facts("on(rack, table)", "on(hook, table)", "on(red_box, table)", "on(blue_box, rack)", "inworkspace(rack)")
@@ -156,7 +156,7 @@ def test_effects() -> None:
 
 
 # --------------------------------------------------------------------------------------------------
-# Enumerations (§11.1, §11.2)
+# Enumerations
 # --------------------------------------------------------------------------------------------------
 
 

@@ -1,5 +1,5 @@
 """The shipped in-context examples are consistent, balanced and about other scenes than the tasks
-(tasks.md §7)."""
+(docs/guide/prompts.md#in-context-examples)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Goal relations and counted box phrases read from instructions, and the completion of counted
-lifted goals (text2motion.md §4: lifted goals enumerate their alternatives)."""
+lifted goals (lifted goals enumerate their alternatives)."""
 
 from __future__ import annotations
 

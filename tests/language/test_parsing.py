@@ -1,4 +1,4 @@
-"""Parsing and validating model answers, and the bounded re-query (text2motion.md §4, §9.2, §10.9)."""
+"""Parsing and validating model answers, and the bounded re-query (docs/guide/prompts.md#parsing-and-validation)."""
 
 from __future__ import annotations
 

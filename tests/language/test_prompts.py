@@ -1,4 +1,4 @@
-"""Prompt layout (text2motion.md §10)."""
+"""Prompt layout (docs/guide/prompts.md#layout)."""
 
 from __future__ import annotations
 

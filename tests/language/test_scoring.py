@@ -1,4 +1,4 @@
-"""Usefulness scores and the multiple-choice approximation (text2motion.md §7.1, §11.4)."""
+"""Usefulness scores and the multiple-choice approximation (docs/guide/planners.md#scores)."""
 
 from __future__ import annotations
 

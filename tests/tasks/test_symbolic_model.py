@@ -1,4 +1,4 @@
-"""The workspace-aware symbolic model and BFS of the subgoal-completion metric (tasks.md §6.2)."""
+"""The workspace-aware symbolic model and BFS of the subgoal-completion metric (docs/guide/tasks.md#success-and-subgoal-completion)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The seven-task suite (tasks.md §2-§3) and its validating loader."""
+"""The seven-task suite (docs/guide/tasks.md) and its validating loader."""
 
 from __future__ import annotations
 

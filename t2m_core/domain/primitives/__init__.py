@@ -1,4 +1,4 @@
-"""TableEnv motion primitives as backend-independent specifications (tableenv.md §10).
+"""TableEnv motion primitives as backend-independent specifications (docs/guide/primitives.md).
 
 :data:`PRIMITIVES` maps each primitive's name to its specification; a backend executes the
 :class:`~t2m_core.domain.primitives.base.MotionStep` s that :meth:`Primitive.motion` returns.

@@ -2,7 +2,7 @@
 
 The domain decides everything geometric: action ranges, the waypoints of every sub-motion, which
 bodies a guarded motion may not touch, which objects must not be disturbed, the mid-sequence checks
-and the post-conditions (tableenv.md §10). A backend only executes :class:`MotionStep` s in order and
+and the post-conditions (docs/guide/primitives.md#executing-a-primitive-the-backend-contract). A backend only executes :class:`MotionStep` s in order and
 answers queries. One primitive execution, as a backend runs it::
 
     primitive = PRIMITIVES[name]
@@ -16,7 +16,7 @@ answers queries. One primitive execution, as a backend runs it::
     outcome = Outcome.failed(reason) if reason else primitive.outcome(start, backend.geometric_state(), arguments)
 
 Failure reasons form the small vocabulary :data:`FAILURES`; each is either a control failure
-(``truncated = True``) or a post-condition failure (``truncated = False``), §10.1.
+(``truncated = True``) or a post-condition failure (``truncated = False``).
 """
 
 from __future__ import annotations
@@ -34,10 +34,10 @@ from t2m_core.domain.objects import ObjectKind, object_spec
 from t2m_core.domain.state import GeometricState
 
 SETTLE_TIMEOUT_S = 3.0
-"""Longest "wait until stable" at the end of a primitive, seconds (§10.3 step 6)."""
+"""Longest "wait until stable" at the end of a primitive, seconds."""
 
 EXPLORATION_HEURISTIC_PROBABILITY = 0.9
-"""Exploration sampler: probability of the noisy heuristic action instead of a uniform one (§10.1)."""
+"""Exploration sampler: probability of the noisy heuristic action instead of a uniform one."""
 
 EXPLORATION_NOISE_STD = 0.05
 """Exploration sampler: per-dimension Gaussian noise on the heuristic action, normalised units."""
@@ -55,7 +55,7 @@ FAILURES: dict[str, tuple[bool, str]] = {
     "unreachable": (True, "the backend's controller hit a joint limit or singularity (reported by the backend)"),
     "collision": (True, "a finger pad or the held object touched a forbidden body during a guarded motion"),
     "disturbed": (True, "a non-argument object moved >= 0.05 m or >= 5 deg since the primitive started"),
-    "grasp_failed": (True, "the gripper closed on nothing or the pad contacts were invalid (§3.3)"),
+    "grasp_failed": (True, "the gripper closed on nothing or the pad contacts were invalid"),
     "too_high": (True, "Place: the held object was farther than 0.05 m from the target before release"),
     "below_table": (True, "the object fell off the table (centre z < 0)"),
     "tipped_over": (True, "Pull/Push: the target was not upright after the reach or the sweep"),
@@ -93,7 +93,7 @@ class Outcome:
 
     @property
     def truncated(self) -> bool:
-        """A control failure ended the primitive (§10.1)."""
+        """A control failure ended the primitive."""
         return self.failure is not None and is_truncated(self.failure)
 
     @classmethod
@@ -115,9 +115,9 @@ class MotionKind(str, Enum):
 
     MOVE = "move"  # free-space move of the EE to a pose at lift height
     DESCEND = "descend"  # straight, contact-guarded move down (or across) to a pose
-    SWEEP = "sweep"  # compliant straight move of a held tool (soft gains, §3.2)
+    SWEEP = "sweep"  # compliant straight move of a held tool (soft gains)
     LIFT = "lift"  # straight move up to a pose at lift height
-    GRASP = "grasp"  # close the gripper, validate the grasp (§3.3), weld the object
+    GRASP = "grasp"  # close the gripper, validate the grasp (docs/guide/world.md#grasping), weld the object
     RELEASE = "release"  # open the gripper and drop the weld
     SETTLE = "settle"  # step until no object moves, at most ``timeout_s``
 
@@ -155,12 +155,12 @@ class MotionStep:
             gripper/settle steps.
         ee_yaw: target gripper yaw in radians, relative to the home orientation: the commanded
             relative orientation is ``Rz(ee_yaw)`` (top-down), executed as ``Rz(ee_yaw)·q_home``
-            (tableenv.md §3.1). ``None`` keeps the current orientation.
+            (docs/guide/world.md#the-robot). ``None`` keeps the current orientation.
         contact_objects: bodies that the finger pads and the held object must not touch during this
-            step (checked every 10 ticks, §3.2); a contact fails with ``"collision"``.
+            step (checked every 10 ticks); a contact fails with ``"collision"``.
         disturbance_objects: objects tested with the 0.05 m / 5° disturbance rule after the step,
             against their poses when the primitive started (see :func:`first_disturbed`).
-        soft: use the compliant gains of tool sweeps (§3.2).
+        soft: use the compliant gains of tool sweeps.
         grasp_object: the object to grasp (``GRASP`` only).
         timeout_s: longest duration of a ``SETTLE`` step, seconds.
         check: domain test after the step (and after the disturbance test).
@@ -195,12 +195,13 @@ class MotionStep:
 
 
 class Primitive(ABC):
-    """One motion primitive of TableEnv (tableenv.md §10).
+    """One motion primitive of TableEnv.
 
     Subclasses set :attr:`name`, :attr:`argument_kinds`, :attr:`action_low` and :attr:`action_high`
     and implement :meth:`motion`; they override :meth:`precheck`, :meth:`outcome` and
     :meth:`heuristic_physical` where the primitive has them. Actions are normalised ``(4,)`` arrays
-    in ``[-1, 1]``; :meth:`to_physical` maps them linearly to the physical ranges of §10.2.
+    in ``[-1, 1]``; :meth:`to_physical` maps them linearly to the physical ranges
+    (docs/guide/primitives.md#actions).
     """
 
     name: str
@@ -269,13 +270,13 @@ class Primitive(ABC):
         return rng.uniform(self.action_low, self.action_high)
 
     def heuristic_action(self, state: GeometricState, arguments: Sequence[str], rng: np.random.Generator) -> np.ndarray:
-        """``(4,) float64`` normalised heuristic action (§10.3-10.6), clipped to ``[-1, 1]``."""
+        """``(4,) float64`` normalised heuristic action, clipped to ``[-1, 1]``."""
         return np.clip(self.to_normalized(self.heuristic_physical(state, arguments, rng)), -1.0, 1.0)
 
     def exploration_action(
         self, state: GeometricState, arguments: Sequence[str], rng: np.random.Generator
     ) -> np.ndarray:
-        """``(4,) float64`` data-generation action (§10.1): with probability 0.9 the heuristic action plus
+        """``(4,) float64`` data-generation action: with probability 0.9 the heuristic action plus
         N(0, 0.05²) per dimension, clipped to ``[-1, 1]``; otherwise uniform in ``[-1, 1]⁴``."""
         return self._explore(self.heuristic_action, state, arguments, rng)
 
@@ -324,7 +325,7 @@ def lift_position(xy: np.ndarray) -> np.ndarray:
 
 def first_disturbed(start_state: GeometricState, state: GeometricState, names: Sequence[str]) -> str | None:
     """``"disturbed"`` if any of ``names`` moved >= 0.05 m or rotated >= 5° between the two states
-    (tableenv.md §6 ``did_move``), else ``None``. Objects missing from either state are skipped."""
+    (``did_move``), else ``None``. Objects missing from either state are skipped."""
     for name in names:
         if name in start_state.objects and name in state.objects:
             before, after = start_state.objects[name], state.objects[name]

@@ -1,4 +1,4 @@
-"""The polar frame shared by the hook primitives Pull and Push (tableenv.md §10.5-10.6).
+"""The polar frame shared by the hook primitives Pull and Push (docs/guide/primitives.md#waypoint-geometry).
 
 Both express their action in a frame at the target: φ = atan2(y_t, x_t) points from the robot base
 to the target, the base point is the target's xy at the sweep height 0.03 m. The action places the
@@ -71,7 +71,7 @@ def sweep_poses(
     hook_quat = quat_multiply(frame, yaw_to_quat(theta))
 
     # Grasp transform T_hook⁻¹·T_ee. EE orientations are relative to home on both sides of the
-    # composition, so the home orientation cancels (tableenv.md §3.1).
+    # composition, so the home orientation cancels.
     hook_pose = state.objects[hook]
     hook_inverse = quat_conjugate(hook_pose.quaternion)
     ee_in_hook = rotate(hook_inverse, state.ee_position - hook_pose.position)
@@ -99,7 +99,7 @@ class HookSweep(Primitive):
 
     @abstractmethod
     def heuristic_reach(self, arguments: Sequence[str]) -> float:
-        """Heuristic r_reach in metres (§10.5, §10.6); Pull and Push place the hook differently."""
+        """Heuristic r_reach in metres; Pull and Push place the hook differently."""
 
     def heuristic_physical(self, state: GeometricState, arguments: Sequence[str], rng: np.random.Generator) -> np.ndarray:
         """Uniform, except r_reach from :meth:`heuristic_reach` and θ = π/8."""

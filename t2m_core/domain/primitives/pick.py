@@ -1,4 +1,4 @@
-"""Pick(obj): grasp a box or the hook from above (tableenv.md §10.3)."""
+"""Pick(obj): grasp a box or the hook from above (docs/guide/primitives.md#waypoint-geometry)."""
 
 from __future__ import annotations
 

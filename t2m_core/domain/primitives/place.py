@@ -1,4 +1,4 @@
-"""Place(obj, target): put the held object down on the table or the rack (tableenv.md §10.4)."""
+"""Place(obj, target): put the held object down on the table or the rack (docs/guide/primitives.md#waypoint-geometry)."""
 
 from __future__ import annotations
 
@@ -37,7 +37,7 @@ SUPPORTS = frozenset({ObjectKind.TABLE, ObjectKind.RACK})
 
 def place_rectangle(target: str) -> np.ndarray:
     """``(2, 2)`` ``[[x_min, y_min], [x_max, y_max]]`` of the target's placement rectangle in its own
-    frame, metres: the rack's top plate, or the table strip x ∈ [0.28, 0.70] (quirk Q20)."""
+    frame, metres: the rack's top plate, or the table strip x ∈ [0.28, 0.70] (as in the original)."""
     spec = object_spec(target)
     if spec.kind is ObjectKind.TABLE:
         return np.array([[TABLE_PLACE_X_RANGE[0], TABLE_Y_MIN], [TABLE_PLACE_X_RANGE[1], TABLE_Y_MAX]])

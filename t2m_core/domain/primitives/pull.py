@@ -1,4 +1,4 @@
-"""Pull(obj, hook): drag a box towards the robot with the held hook (tableenv.md §10.5)."""
+"""Pull(obj, hook): drag a box towards the robot with the held hook (docs/guide/primitives.md#waypoint-geometry)."""
 
 from __future__ import annotations
 
@@ -39,7 +39,8 @@ class Pull(HookSweep):
 
     Args:
         min_distance: how much the target's planar distance from the base must shrink, metres
-            (d_Pull; 0.05 as published, the original used 0.01, quirk Q16).
+            (d_Pull; 0.05 as published, the original used 0.01:
+            docs/guide/deviations.md#pull-and-push-displacement).
     """
 
     name = "pull"

@@ -1,4 +1,4 @@
-"""Push(obj, hook, rack): sweep a box away from the robot, under the rack (tableenv.md §10.6)."""
+"""Push(obj, hook, rack): sweep a box away from the robot, under the rack (docs/guide/primitives.md#waypoint-geometry)."""
 
 from __future__ import annotations
 
@@ -39,11 +39,12 @@ class Push(HookSweep):
     Action (physical): ``(r_reach, r_push, y, θ)`` in the polar frame at the target: the hook starts
     ``r_reach`` (negative: on the robot's side) from the target, sweeps ``r_push`` outward, offset
     ``y`` sideways, yawed ``θ``. Every test is mid-sequence (a control failure); like the original
-    there is no final settle (quirk Q19).
+    there is no final settle.
 
     Args:
         min_distance: how much the target's planar distance from the base must grow, metres
-            (d_Push; 0.05 as published, the original used 0.01, quirk Q16).
+            (d_Push; 0.05 as published, the original used 0.01:
+            docs/guide/deviations.md#pull-and-push-displacement).
     """
 
     name = "push"

@@ -1,4 +1,4 @@
-"""Stop(): the language baselines' "done" skill (tableenv.md §10.1): no motion, always succeeds."""
+"""Stop(): the language baselines' "done" skill (docs/guide/planners.md#saycan-gs): no motion, always succeeds."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Analytic screen of Pull and Push actions for data generation (no simulation).
 
-The reference heuristic of tableenv.md §10.5/§10.6 fixes r_reach and θ = π/8 and draws the sweep
+The reference heuristic (docs/guide/primitives.md#action-samplers) fixes r_reach and θ = π/8 and draws the sweep
 length and the sideways offset y uniformly. Many such draws are doomed before any physics runs: the
 handle lands on the box's top (the box tips), the sweep ends with the box outside the workspace or
 short of the rack, the tool or the hand sweeps through a bystander, or the EE leaves the arm's reach.
@@ -219,7 +219,7 @@ def bystanders(state: GeometricState, arguments: Sequence[str]) -> list[ObjectGe
 
 
 def rack_parts(state: GeometricState, rack: str, names: Sequence[str]) -> list[ObjectGeometry]:
-    """The named parts of the rack (``"leg_0"``..., ``"bar_0"``...; §4.2) as one-part
+    """The named parts of the rack (``"leg_0"``..., ``"bar_0"``...) as one-part
     :class:`ObjectGeometry` s: the space between the legs is open, so Push needs them separately."""
     pose = state.objects[rack]
     spec = object_spec(rack)
@@ -235,7 +235,7 @@ def _part_geometry(name: str, spec, part: BoxPart, pose: ObjectPose) -> ObjectGe
 
 
 def _head(hook: ObjectGeometry) -> np.ndarray:
-    """The head's footprint (the hook's second convex part, §4.3)."""
+    """The head's footprint (the hook's second convex part)."""
     return hook.footprints[1]
 
 
