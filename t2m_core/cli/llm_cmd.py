@@ -1,7 +1,8 @@
 """``t2m llm``: ask the language model Text2Motion's questions about one task scene.
 
 - ``t2m llm goal --task ID --seed N [--llm NAME] [--json]``: the predicted goal alternatives and
-  whether they are valid in the scene;
+  whether they are valid in the scene; exits 1 when no valid goal came back or the goal differs from
+  the task's ground-truth goal alternatives;
 - ``t2m llm next --task ID --seed N --executed "pick(a),place(a, rack)"``: the K candidate next
   skills with their log-likelihoods and usefulness scores.
 
@@ -72,7 +73,9 @@ def goal_command(
     constrained: ConstrainedOption = True,
     as_json: JsonOption = False,
 ) -> None:
-    """Predict the goal of the task's instruction as DNF alternatives, and validate them."""
+    """Predict the goal of the task's instruction as DNF alternatives, and validate them.
+
+    Exits 1 when the model gives no valid goal or a goal other than the task's alternatives."""
     from rich.console import Console
 
     task_spec, session = _session(task, seed, llm, settings, transcript, constrained)
@@ -92,6 +95,8 @@ def goal_command(
     }
     if as_json:
         typer.echo(json.dumps(report, indent=2))
+        if not report["matches_task_goal"]:
+            raise typer.Exit(1)
         return
     console = Console()
     console.print(f"[bold]{task_spec.id}[/bold] seed {seed}: {task_spec.instruction}")
@@ -104,6 +109,8 @@ def goal_command(
     for index, alternative in enumerate(query.goal.to_lists(), start=1):
         console.print(f"  alternative {index}: {', '.join(alternative)}", highlight=False)
     console.print(f"matches the task's goal alternatives: {report['matches_task_goal']}")
+    if not report["matches_task_goal"]:
+        raise typer.Exit(1)
 
 
 @llm_app.command("next")

@@ -88,3 +88,25 @@ def test_table_output(scripted):
     result = runner.invoke(app, ["llm", "goal", "--task", "task3", "--llm", "scripted"])
     assert result.exit_code == 0, result.output
     assert "alternative 3" in result.output and "matches the task's goal alternatives: True" in result.output
+
+
+class WrongGoalModel(ScriptedModel):
+    """Answers every goal prompt with a valid goal that is not task3's."""
+
+    def __init__(self, _options=None):
+        self.goal_answers = ["[['on(red_box, rack)']]"]
+
+
+@pytest.mark.parametrize("as_json", [True, False])
+def test_goal_exits_nonzero_on_a_valid_but_wrong_goal(t2m_registry, t2m_plugin, as_json):
+    def register():
+        return [LanguageModelSpec(name="wrong-goal", factory=WrongGoalModel, summary="test double")]
+
+    t2m_plugin(SimpleNamespace(t2m_register_language_models=hookimpl(register)), name="wrong-goal")
+    result = runner.invoke(app, ["llm", "goal", "--task", "task3", "--llm", "wrong-goal", *(["--json"] if as_json else [])])
+    assert result.exit_code == 1, result.output
+    if as_json:
+        report = json.loads(result.stdout)
+        assert report["valid"] and not report["matches_task_goal"]
+    else:
+        assert "matches the task's goal alternatives: False" in result.output
