@@ -13,7 +13,7 @@ import click
 import typer
 from typer.core import TyperGroup
 
-from t2m_core.cli import config_cmd, llm_cmd, plugins_cmd, sim_cmd, tasks_cmd
+from t2m_core.cli import config_cmd, datagen_cmd, llm_cmd, plugins_cmd, sim_cmd, tasks_cmd
 from t2m_core.errors import T2MError
 
 USER_ERROR_EXIT_CODE = 2
@@ -75,6 +75,7 @@ config_cmd.register(app)
 tasks_cmd.register(app)
 sim_cmd.register(app)
 llm_cmd.register(app)
+datagen_cmd.register(app)
 
 
 def main() -> None:

@@ -1,0 +1,85 @@
+"""``t2m datagen``: generate skill data (a thin layer over :func:`t2m_core.data.generate.generate_dataset`)."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from t2m_core.errors import T2MError
+
+
+def datagen(
+    skill: Annotated[str, typer.Option("--skill", help="pick, place, pull, push, or all.")],
+    split: Annotated[str, typer.Option("--split", help="train, validation or invalid (OOD calibration, not simulated).")],
+    size: Annotated[int, typer.Option("--size", min=1, help="Transitions per skill in the split.")],
+    out: Annotated[Path, typer.Option("--out", help="Dataset directory (DIR/<skill>/<split>/...).")],
+    workers: Annotated[int, typer.Option("--workers", min=0, help="Worker processes (0: one per core).")] = 0,
+    sim: Annotated[str, typer.Option("--sim", help="Simulator plugin (see `t2m list-plugins`).")] = "mujoco",
+    seed: Annotated[int, typer.Option("--seed", min=0, help="Base seed of the dataset.")] = 0,
+    chunk_size: Annotated[int, typer.Option("--chunk-size", min=1, help="Transitions per shard.")] = 250,
+    sampler: Annotated[str, typer.Option("--sampler", help="Action sampler: screened (default), heuristic, uniform.")] = "screened",
+    as_json: Annotated[bool, typer.Option("--json", help="Print the manifests as JSON on stdout.")] = False,
+) -> None:
+    """Generate (or finish generating) a split of skill data: simulated transitions of symbolically
+    valid skills (train, validation) or unsimulated invalid ones (invalid). Rerunning the same
+    command resumes: finished shards are kept."""
+    from t2m_core.data.generate import DatasetJob, default_workers, generate_dataset
+    from t2m_core.data.scenes import DATA_SKILLS
+    from t2m_core.registry import get_registry
+
+    skills = DATA_SKILLS if skill == "all" else (skill,)
+    if skill != "all" and skill not in DATA_SKILLS:
+        raise T2MError(f"unknown skill {skill!r}", f"use one of: {', '.join(DATA_SKILLS)}, all")
+    if split != "invalid":
+        sim = get_registry().get("simulator", sim).name  # an unknown name fails here, with the choices
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise T2MError(f"cannot create the dataset directory {out}: {error.strerror}", "choose a writable --out") from None
+    manifests = {}
+    for name in skills:
+        job = DatasetJob(out, name, split, size, chunk_size, seed, sampler, sim)
+        manifests[name] = _run_with_progress(job, workers or default_workers(), generate_dataset)
+    if as_json:
+        typer.echo(json.dumps(manifests, indent=2))
+
+
+def _run_with_progress(job, workers: int, generate) -> dict:
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+    console = Console(stderr=True)
+    started = time.perf_counter()
+    columns = (
+        TextColumn(f"[bold]{job.skill}[/] {job.split}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[rate]} transitions/s"),
+        TextColumn("success {task.fields[success]}"),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+    )
+    with Progress(*columns, console=console, transient=False) as bar:
+        task = bar.add_task("chunks", total=None, rate="-", success="-")
+
+        def update(progress) -> None:
+            elapsed = time.perf_counter() - started
+            rate = f"{progress.new_transitions / elapsed:.1f}" if progress.new_transitions else "-"
+            success = f"{progress.successes / progress.transitions:.0%}" if progress.transitions else "-"
+            bar.update(task, total=progress.chunks_total, completed=progress.chunks_done, rate=rate, success=success)
+
+        manifest = generate(job, workers=workers, on_progress=update)
+    console.print(
+        f"{job.skill} {job.split}: {manifest['count']} transitions, success rate {manifest['success_rate']:.1%} "
+        f"-> {job.directory}"
+    )
+    return manifest
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``t2m datagen`` to the root app."""
+    app.command("datagen")(datagen)

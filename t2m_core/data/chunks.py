@@ -1,0 +1,278 @@
+"""One chunk of skill data: a pure function of (skill, split, chunk index, size, base seed) and the
+simulator's options (docs/guide/skills.md#data-generation).
+
+Every random draw of a chunk comes from one NumPy generator seeded with those numbers, and every
+simulator reset starts from a cleared physics state, so a chunk's transitions do not depend on which
+process runs it or what it ran before: a killed run can redo a chunk, and a cluster can run chunks
+anywhere.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from t2m_core.data.records import (
+    INVALID_GROUNDING,
+    MAX_ARGUMENTS,
+    Transitions,
+    empty_transitions,
+    failure_code,
+    name_indices,
+)
+from t2m_core.data.scenes import DATA_SKILLS, DataTask, draw_data_task
+from t2m_core.domain.geometry import quat_multiply, rotate, yaw_to_quat
+from t2m_core.domain.observation import MAX_OBJECTS, argument_first_order, encode_observation
+from t2m_core.domain.primitives import Primitive, get_primitive
+from t2m_core.domain.sampling import SamplingError, sample_initial_state
+from t2m_core.domain.state import GeometricState, ObjectPose
+from t2m_core.errors import T2MError
+
+SPLITS: tuple[str, ...] = ("train", "validation", "invalid")
+"""Dataset splits: simulated valid groundings for training and model selection; symbolically
+invalid groundings, not simulated, for OOD calibration."""
+MIN_SUCCESS_FRACTION = 0.4
+"""Balancing: at least this share of a chunk's transitions are successes."""
+MAX_DRAWS_PER_TRANSITION = 200
+"""A chunk that needs more draws than this per kept transition gives up (a broken simulator)."""
+SAMPLERS: dict[str, str] = {
+    "screened": "screened_exploration_action",
+    "heuristic": "exploration_action",
+    "uniform": "uniform",
+}
+"""Action samplers of data generation -> :class:`Primitive` method (``uniform``: U[-1, 1]^4)."""
+
+
+class DataGenerationError(T2MError):
+    """A chunk that cannot be generated (unknown skill or split, a simulator that never succeeds)."""
+
+
+@dataclass(frozen=True)
+class ChunkSpec:
+    """Everything a chunk's content depends on, besides the simulator and its options.
+
+    Attributes:
+        skill: ``pick``, ``place``, ``pull`` or ``push``.
+        split: ``train``, ``validation`` or ``invalid``.
+        index: the chunk's position in its split (0, 1, ...).
+        size: transitions it holds.
+        base_seed: the dataset's seed; splits and chunks draw independent streams from it.
+        sampler: action sampler of simulated splits (a key of :data:`SAMPLERS`).
+    """
+
+    skill: str
+    split: str
+    index: int
+    size: int
+    base_seed: int = 0
+    sampler: str = "screened"
+
+    def __post_init__(self) -> None:
+        if self.skill not in DATA_SKILLS:
+            raise DataGenerationError(f"unknown skill {self.skill!r}", f"use one of: {', '.join(DATA_SKILLS)}")
+        if self.split not in SPLITS:
+            raise DataGenerationError(f"unknown split {self.split!r}", f"use one of: {', '.join(SPLITS)}")
+        if self.sampler not in SAMPLERS:
+            raise DataGenerationError(f"unknown action sampler {self.sampler!r}", f"use one of: {', '.join(SAMPLERS)}")
+        if self.size < 1 or self.index < 0 or self.base_seed < 0:
+            raise DataGenerationError(f"chunk size must be >= 1 and index, seed >= 0; got {self}")
+
+    @property
+    def filename(self) -> str:
+        """``chunk-00003.safetensors``."""
+        return f"chunk-{self.index:05d}.safetensors"
+
+    @property
+    def simulated(self) -> bool:
+        """Whether the chunk runs the simulator (the invalid split does not)."""
+        return self.split != "invalid"
+
+    def rng(self) -> np.random.Generator:
+        """The chunk's generator: independent streams per (base seed, skill, split, index)."""
+        words = [self.base_seed, DATA_SKILLS.index(self.skill), SPLITS.index(self.split), self.index]
+        return np.random.default_rng(np.random.SeedSequence(words))
+
+    def header(self) -> dict[str, Any]:
+        """The fields that identify the chunk, as its shard header stores them."""
+        return {
+            "skill": self.skill,
+            "split": self.split,
+            "index": self.index,
+            "size": self.size,
+            "base_seed": self.base_seed,
+            "sampler": self.sampler if self.simulated else "uniform",
+        }
+
+
+@dataclass
+class ChunkStats:
+    """What it cost to produce a chunk.
+
+    Attributes:
+        draws: (state, call) draws, including discarded failures and failed resets.
+        discarded_failures: failures dropped by the balancing rule.
+        reset_failures: draws whose scene could not be sampled or settled.
+        reset_rejections: candidate seeds rejected inside accepted resets.
+        seconds: wall time, of which ``reset_seconds`` went into resets.
+    """
+
+    draws: int = 0
+    discarded_failures: int = 0
+    reset_failures: int = 0
+    reset_rejections: int = 0
+    seconds: float = 0.0
+    reset_seconds: float = 0.0
+    failures: Counter[str] = field(default_factory=Counter)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The deterministic counts, JSON-ready (the timings vary from run to run, so shards leave
+        them out and stay byte-identical)."""
+        return {
+            "draws": self.draws,
+            "discarded_failures": self.discarded_failures,
+            "reset_failures": self.reset_failures,
+            "reset_rejections": self.reset_rejections,
+            "failures": dict(sorted(self.failures.items())),
+        }
+
+
+def generate_chunk(spec: ChunkSpec, simulator: Any = None) -> tuple[Transitions, ChunkStats]:
+    """Generate one chunk.
+
+    Simulated splits reset ``simulator`` to a drawn (state, call) scene, draw an action with the
+    spec's sampler and execute it, keeping every success and failures only while they are under
+    60 % of the chunk (the balancing rule). The invalid split encodes analytically sampled scenes
+    of symbolically invalid calls with uniform actions, reward 0 and ``next_observation =
+    observation``.
+
+    Args:
+        spec: the chunk.
+        simulator: a :class:`t2m_core.protocols.Simulator`; unused for the invalid split.
+
+    Raises:
+        DataGenerationError: no simulator for a simulated split, or too many draws per transition.
+    """
+    if spec.simulated and simulator is None:
+        raise DataGenerationError(f"the {spec.split} split needs a simulator")
+    rng = spec.rng()
+    stats = ChunkStats()
+    started = time.perf_counter()
+    max_failures = spec.size - math.ceil(MIN_SUCCESS_FRACTION * spec.size)
+    rows: list[dict[str, Any]] = []
+    kept_failures = 0
+    while len(rows) < spec.size:
+        stats.draws += 1
+        if stats.draws > MAX_DRAWS_PER_TRANSITION * spec.size:
+            raise DataGenerationError(
+                f"{spec.skill} {spec.split} chunk {spec.index}: {stats.draws} draws for {len(rows)} transitions "
+                f"({stats.reset_failures} failed resets, failures {dict(stats.failures)})",
+                "check the simulator with `t2m sim demo`; a skill that never succeeds cannot be balanced",
+            )
+        task = draw_data_task(spec.skill, spec.simulated, rng)
+        scene_seed = int(rng.integers(2**31 - 1))
+        row = _simulated_row(spec, simulator, task, scene_seed, rng, stats) if spec.simulated else _invalid_row(task, scene_seed, rng)
+        if row is None:
+            continue
+        if row["reward"] < 0.5:
+            stats.failures[row["failure_name"]] += 1
+            if spec.simulated and kept_failures >= max_failures:
+                stats.discarded_failures += 1
+                continue
+            kept_failures += 1
+        rows.append(row)
+    stats.seconds = time.perf_counter() - started
+    return _stack(rows), stats
+
+
+def _action_sampler(name: str, primitive: Primitive) -> Callable[[GeometricState, tuple[str, ...], np.random.Generator], np.ndarray]:
+    if name == "uniform":
+        return lambda state, arguments, rng: rng.uniform(-1.0, 1.0, primitive.action_dim)
+    return getattr(primitive, SAMPLERS[name])
+
+
+def _simulated_row(
+    spec: ChunkSpec, simulator: Any, task: DataTask, scene_seed: int, rng: np.random.Generator, stats: ChunkStats
+) -> dict[str, Any] | None:
+    reset_started = time.perf_counter()
+    try:
+        reset = simulator.reset(task, seed=scene_seed)
+    except SamplingError:
+        stats.reset_failures += 1
+        return None
+    finally:
+        stats.reset_seconds += time.perf_counter() - reset_started
+    stats.reset_rejections += reset.rejections
+    primitive = get_primitive(spec.skill)
+    action = _action_sampler(spec.sampler, primitive)(reset.state, task.call.args, rng)
+    result = simulator.execute(spec.skill, task.call.args, action)
+    return _row(task, reset.accepted_seed, reset.observation, action, result.observation, result.success, result.truncated, result.failure)
+
+
+def _invalid_row(task: DataTask, scene_seed: int, rng: np.random.Generator) -> dict[str, Any] | None:
+    """An invalid-split row: the scene sampled analytically (no physics), the robot moved to the
+    sampler's random pose (carrying a held object along), a uniform action."""
+    try:
+        sampled = sample_initial_state(task.objects, task.initial_state, scene_seed)
+    except SamplingError:
+        return None
+    state = _at_robot_pose(sampled.state, sampled.robot_pose.position, sampled.robot_pose.yaw)
+    observation = encode_observation(state, task.objects)
+    action = rng.uniform(-1.0, 1.0, 4)
+    return _row(task, sampled.accepted_seed, observation, action, observation, False, False, INVALID_GROUNDING)
+
+
+def _at_robot_pose(state: GeometricState, ee_position: np.ndarray, ee_yaw: float) -> GeometricState:
+    """``state`` with the end effector moved from its (home) pose to ``ee_position`` at ``ee_yaw``
+    (radians, relative to home), the held object moving rigidly with it."""
+    turn = yaw_to_quat(ee_yaw)
+    objects = dict(state.objects)
+    if state.held is not None:
+        pose = objects[state.held]
+        offset = rotate(turn, pose.position - state.ee_position)
+        objects[state.held] = ObjectPose(ee_position + offset, quat_multiply(turn, pose.quaternion))
+    return GeometricState(objects, np.asarray(ee_position, dtype=np.float64), quat_multiply(turn, state.ee_quaternion), state.held)
+
+
+def _row(
+    task: DataTask,
+    scene_seed: int,
+    observation: np.ndarray,
+    action: np.ndarray,
+    next_observation: np.ndarray,
+    success: bool,
+    truncated: bool,
+    failure: str | None,
+) -> dict[str, Any]:
+    order = argument_first_order(task.objects, task.call.args)
+    return {
+        "observation": np.asarray(observation, dtype=np.float32),
+        "action": np.asarray(action, dtype=np.float32),
+        "reward": np.float32(1.0 if success else 0.0),
+        "next_observation": np.asarray(next_observation, dtype=np.float32),
+        "terminated": not truncated,
+        "truncated": bool(truncated),
+        "failure": failure_code(failure),
+        "failure_name": failure,
+        "arguments": name_indices(task.call.args, MAX_ARGUMENTS),
+        "present": name_indices(task.objects, MAX_OBJECTS),
+        "row_order": order.order.astype(np.int8),
+        "shuffle_range": np.array([order.shuffle_start, order.shuffle_stop], dtype=np.int8),
+        "symbolic_state": task.symbolic_state,
+        "scene_seed": scene_seed,
+    }
+
+
+def _stack(rows: list[dict[str, Any]]) -> Transitions:
+    template = empty_transitions()
+    if not rows:
+        return template
+    columns = {}
+    for name, empty in template.columns().items():
+        columns[name] = np.asarray([row[name] for row in rows], dtype=empty.dtype).reshape(len(rows), *empty.shape[1:])
+    return Transitions(**columns)

@@ -1,0 +1,313 @@
+"""Generate a dataset split as a set of chunks, resumably and in parallel
+(docs/guide/skills.md#data-generation).
+
+Layout of a dataset directory::
+
+    DIR/<skill>/<split>/chunk-00000.safetensors   one shard per chunk (written atomically)
+    DIR/<skill>/<split>/manifest.json             counts, success rate, failures, seeds, simulator, version
+
+A run first keeps every shard already on disk that belongs to the same dataset (same skill, split,
+chunk size, seed, sampler and simulator); it then generates the missing chunks, in worker
+processes, and finally writes the manifest from the shards. A killed run loses at most the chunks
+in flight; rerunning the same command finishes the job.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+from collections import Counter
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from t2m_core.atomic_files import write_json_atomic
+from t2m_core.data.chunks import ChunkSpec, ChunkStats, generate_chunk
+from t2m_core.data.records import SHARD_FORMAT, FAILURE_VOCABULARY, ShardError, Transitions, read_shard, read_shard_header, write_shard
+
+MANIFEST_NAME = "manifest.json"
+TIMINGS_NAME = "timings.jsonl"
+"""Per-chunk wall and reset seconds, one JSON line each: the cost of the data, kept out of the shards
+so that a chunk's shard is byte-identical wherever it ran."""
+DEFAULT_CHUNK_SIZE = 250
+"""Transitions per chunk: small enough that a killed run loses little, large enough to amortise a
+worker's start (seconds of simulation each)."""
+
+
+@dataclass(frozen=True)
+class DatasetJob:
+    """One split of one skill to generate.
+
+    Attributes:
+        out: the dataset directory (``DIR`` above).
+        skill, split: what to generate.
+        size: transitions in the split (the last chunk may be smaller).
+        chunk_size: transitions per chunk.
+        base_seed: the dataset's seed.
+        sampler: action sampler of simulated splits.
+        simulator: simulator plugin name; ``simulator_options`` its options.
+    """
+
+    out: Path
+    skill: str
+    split: str
+    size: int
+    chunk_size: int = DEFAULT_CHUNK_SIZE
+    base_seed: int = 0
+    sampler: str = "screened"
+    simulator: str = "mujoco"
+    simulator_options: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def directory(self) -> Path:
+        """``out/<skill>/<split>``."""
+        return Path(self.out) / self.skill / self.split
+
+    def chunks(self) -> list[ChunkSpec]:
+        """The split's chunks in order."""
+        count = math.ceil(self.size / self.chunk_size)
+        return [
+            ChunkSpec(
+                self.skill,
+                self.split,
+                index,
+                min(self.chunk_size, self.size - index * self.chunk_size),
+                self.base_seed,
+                self.sampler,
+            )
+            for index in range(count)
+        ]
+
+    def shard_header(self, spec: ChunkSpec) -> dict[str, Any]:
+        """What a shard of this job records about how it was made."""
+        header = spec.header()
+        if spec.simulated:
+            header["simulator"] = {"name": self.simulator, "options": self.simulator_options}
+        return header
+
+
+@dataclass
+class Progress:
+    """Running totals reported to a progress callback after every finished chunk."""
+
+    chunks_done: int = 0
+    chunks_total: int = 0
+    transitions: int = 0
+    successes: int = 0
+    new_transitions: int = 0
+    seconds: float = 0.0
+
+
+def generate_dataset(
+    job: DatasetJob,
+    *,
+    workers: int = 1,
+    on_progress: Callable[[Progress], None] | None = None,
+) -> dict[str, Any]:
+    """Generate the missing chunks of ``job`` and write its manifest; returns the manifest.
+
+    Args:
+        job: the split to generate.
+        workers: worker processes (1: in this process).
+        on_progress: called after each finished chunk (and once at the start).
+
+    Raises:
+        DataGenerationError: a chunk cannot be generated.
+    """
+    specs = job.chunks()
+    progress = Progress(chunks_total=len(specs))
+    pending = []
+    for spec in specs:
+        header = _existing_header(job, spec)
+        if header is None:
+            pending.append(spec)
+        else:
+            progress.chunks_done += 1
+            progress.transitions += header["count"]
+            progress.successes += header["successes"]
+    if on_progress:
+        on_progress(progress)
+    for spec, transitions, stats in _run_chunks(job, pending, workers):
+        header = {**job.shard_header(spec), "count": len(transitions), "successes": int(transitions.success.sum()), "stats": stats.as_dict()}
+        write_shard(job.directory / spec.filename, transitions, header)
+        _append_timing(job, spec, stats)
+        progress.chunks_done += 1
+        progress.transitions += len(transitions)
+        progress.new_transitions += len(transitions)
+        progress.successes += header["successes"]
+        progress.seconds += stats.seconds
+        if on_progress:
+            on_progress(progress)
+    return write_manifest(job)
+
+
+def _existing_header(job: DatasetJob, spec: ChunkSpec) -> dict[str, Any] | None:
+    """The header of the chunk's shard if it is on disk and belongs to this job, else ``None``
+    (a torn, foreign or stale shard is regenerated)."""
+    path = job.directory / spec.filename
+    if not path.exists():
+        return None
+    try:
+        header = read_shard_header(path)
+    except ShardError:
+        return None
+    expected = job.shard_header(spec)
+    if any(header.get(key) != value for key, value in expected.items()) or header.get("count") != spec.size:
+        return None
+    return header
+
+
+def _run_chunks(job: DatasetJob, specs: Sequence[ChunkSpec], workers: int) -> Iterator[tuple[ChunkSpec, Transitions, ChunkStats]]:
+    if not specs:
+        return
+    if workers <= 1:
+        for spec in specs:
+            yield spec, *_chunk_in_worker(job, spec)
+        return
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        remaining = list(specs)
+        running: dict[Future, ChunkSpec] = {}
+        while remaining or running:
+            while remaining and len(running) < 2 * workers:
+                spec = remaining.pop(0)
+                running[pool.submit(_chunk_in_worker, job, spec)] = spec
+            done, _ = wait(running, return_when=FIRST_COMPLETED)
+            for future in done:
+                spec = running.pop(future)
+                yield spec, *future.result()
+
+
+_WORKER_SIMULATORS: dict[tuple[str, str], Any] = {}
+
+
+def _chunk_in_worker(job: DatasetJob, spec: ChunkSpec) -> tuple[Transitions, ChunkStats]:
+    """Generate one chunk; a worker keeps one simulator per (name, options) between chunks (a reset
+    clears its physics, so the chunk does not depend on what ran before)."""
+    simulator = None
+    if spec.simulated:
+        key = (job.simulator, repr(sorted(job.simulator_options.items())))
+        simulator = _WORKER_SIMULATORS.get(key)
+        if simulator is None:
+            from t2m_core.registry import get_registry
+
+            simulator = _WORKER_SIMULATORS[key] = get_registry().create("simulator", job.simulator, job.simulator_options)
+    return generate_chunk(spec, simulator)
+
+
+# --------------------------------------------------------------------------------------------------
+# Manifest and loading
+# --------------------------------------------------------------------------------------------------
+
+
+def write_manifest(job: DatasetJob) -> dict[str, Any]:
+    """Summarise the job's shards into ``manifest.json`` (atomically) and return it."""
+    from t2m_core import __version__
+
+    shards, failures = [], Counter()
+    count = successes = discarded = draws = 0
+    for spec in job.chunks():
+        path = job.directory / spec.filename
+        header = _existing_header(job, spec)
+        if header is None:
+            raise ShardError(f"chunk {spec.index} of {job.directory} is missing or stale", "rerun the same `t2m datagen` command")
+        shards.append({"file": spec.filename, "count": header["count"], "sha256": _sha256(path)})
+        count += header["count"]
+        successes += header["successes"]
+        stats = header["stats"]
+        failures.update(stats["failures"])
+        discarded += stats["discarded_failures"]
+        draws += stats["draws"]
+    manifest = {
+        "format": SHARD_FORMAT,
+        "t2m_version": __version__,
+        "skill": job.skill,
+        "split": job.split,
+        "count": count,
+        "successes": successes,
+        "success_rate": round(successes / count, 4) if count else 0.0,
+        "failures_seen": dict(sorted(failures.items())),
+        "discarded_failures": discarded,
+        "draws": draws,
+        "base_seed": job.base_seed,
+        "chunk_size": job.chunk_size,
+        "sampler": job.shard_header(job.chunks()[0])["sampler"],
+        "simulator": {"name": job.simulator, "options": job.simulator_options} if job.split != "invalid" else None,
+        "failure_vocabulary": list(FAILURE_VOCABULARY),
+        **_timing_summary(job),
+        "shards": shards,
+    }
+    write_json_atomic(job.directory / MANIFEST_NAME, manifest)
+    return manifest
+
+
+def _append_timing(job: DatasetJob, spec: ChunkSpec, stats: ChunkStats) -> None:
+    import json
+
+    record = {"chunk": spec.index, "count": spec.size, "seconds": round(stats.seconds, 3), "reset_seconds": round(stats.reset_seconds, 3)}
+    with open(job.directory / TIMINGS_NAME, "a", encoding="utf-8") as handle:
+        handle.write(json.dumps(record) + "\n")
+
+
+def _timing_summary(job: DatasetJob) -> dict[str, Any]:
+    """Seconds per chunk (the latest run of each) summed: what the data cost, per worker-second."""
+    import json
+
+    path = job.directory / TIMINGS_NAME
+    latest: dict[int, dict[str, Any]] = {}
+    if path.exists():
+        for line in path.read_text(encoding="utf-8").splitlines():
+            try:
+                record = json.loads(line)
+                latest[int(record["chunk"])] = record
+            except (ValueError, KeyError, TypeError):
+                continue  # a line torn by a kill
+    seconds = sum(r["seconds"] for r in latest.values())
+    count = sum(r["count"] for r in latest.values())
+    return {
+        "worker_seconds": round(seconds, 1),
+        "reset_seconds": round(sum(r["reset_seconds"] for r in latest.values()), 1),
+        "transitions_per_worker_second": round(count / seconds, 3) if seconds else None,
+    }
+
+
+def manifest_digest(directory: Path | str) -> str:
+    """sha256 of a split's ``manifest.json`` (checkpoints record which data trained them)."""
+    return _sha256(Path(directory) / MANIFEST_NAME)
+
+
+def load_split(directory: Path | str) -> Transitions:
+    """Every transition of a split directory (``DIR/<skill>/<split>``), in chunk order.
+
+    Raises:
+        ShardError: no manifest, or a shard that is missing or does not match its recorded digest.
+    """
+    import json
+
+    directory = Path(directory)
+    manifest_path = directory / MANIFEST_NAME
+    if not manifest_path.exists():
+        raise ShardError(f"no {MANIFEST_NAME} in {directory}", "generate the split with `t2m datagen` (it writes the manifest last)")
+    manifest = json.loads(manifest_path.read_text())
+    parts = []
+    for shard in manifest["shards"]:
+        path = directory / shard["file"]
+        if not path.exists() or _sha256(path) != shard["sha256"]:
+            raise ShardError(f"shard {path} is missing or differs from {manifest_path}", "rerun the `t2m datagen` command that made it")
+        parts.append(read_shard(path)[0])
+    return Transitions.concatenate(parts)
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def default_workers() -> int:
+    """One worker per available core."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
