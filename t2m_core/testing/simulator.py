@@ -11,9 +11,13 @@ Checked, per task and seed: seeded resets are deterministic (same accepted seed,
 bit-identical observations); the observation is ``(8, 12) float32`` with row 0 the end effector and
 rows 1..N the task's objects in order, each matching the state; ``get_state``/``set_state``
 restores a snapshot exactly (re-executing the same primitive from it, or straight after a fresh
-reset, gives the same result and state; a reset does not depend on earlier simulation); and primitive results are consistent with the domain (reasons from the failure vocabulary,
-``truncated`` matching the reason, ``success`` agreeing with the primitive's own post-conditions on
-the reported states).
+reset, gives the same result and state; a reset does not depend on earlier simulation); primitive
+results use the failure vocabulary with ``truncated`` matching the reason; and every reported
+success is confirmed by facts the backend did not compute: the reported poses, judged by the plain
+geometry of :mod:`t2m_core.testing.success_facts` (a placed object rests on its target, a picked one
+is held and lifted...). Besides the heuristic and a uniform action for the first skill of each
+task's reference skeleton, the first ``skeleton_steps`` skills are walked with sampled parameters
+(:func:`t2m_core.skeleton_search.search_skeleton`) so that Place is judged too.
 """
 
 from __future__ import annotations
@@ -25,6 +29,10 @@ import numpy as np
 
 DEFAULT_TASKS = ("task0", "task3")
 DEFAULT_SEEDS = (0, 1)
+SKELETON_STEPS = 2
+"""Skills of each reference skeleton walked with sampled parameters (pick, then place)."""
+SKELETON_TRIES = 10
+"""Executions per skill of that walk before it gives up (Place's heuristic succeeds about half the time)."""
 
 
 def _assert_states_equal(a: Any, b: Any, what: str, atol: float = 0.0) -> None:
@@ -49,13 +57,18 @@ def check_observation(observation: np.ndarray, state: Any, object_names: Sequenc
     np.testing.assert_allclose(observation, encode_observation(state, object_names), atol=1e-6,
                                err_msg="observation does not encode the reported state")
     np.testing.assert_allclose(observation[0, :3], state.ee_position, atol=1e-6, err_msg="row 0 must be the EE")
+    for row, name in enumerate(object_names, start=1):
+        if name != "table":  # the table's row is all zeros
+            np.testing.assert_allclose(observation[row, :3], state.objects[name].position, atol=1e-6,
+                                       err_msg=f"row {row} must be {name}'s position")
     assert not observation[len(object_names) + 1 :].any(), "rows after the present objects must be zero"
 
 
 def check_result(result: Any, primitive: str, arguments: Sequence[str], start_state: Any) -> None:
-    """A :class:`~t2m_core.protocols.PrimitiveResult` is consistent with the domain's vocabulary and
-    post-conditions."""
-    from t2m_core.domain.primitives import FAILURES, get_primitive
+    """A :class:`~t2m_core.protocols.PrimitiveResult` uses the domain's failure vocabulary, and a
+    reported success is confirmed by the reported poses (:mod:`t2m_core.testing.success_facts`)."""
+    from t2m_core.domain.primitives import FAILURES
+    from t2m_core.testing.success_facts import success_problems
 
     assert result.success == (result.failure is None), f"{primitive}: success={result.success} with failure={result.failure!r}"
     if result.failure is not None:
@@ -63,24 +76,55 @@ def check_result(result: Any, primitive: str, arguments: Sequence[str], start_st
         assert result.truncated == FAILURES[result.failure][0], f"{primitive}: truncated disagrees with {result.failure!r}"
     else:
         assert not result.truncated, f"{primitive}: a success cannot be truncated"
-        outcome = get_primitive(primitive).outcome(start_state, result.state, tuple(arguments))
-        assert outcome.success, f"{primitive}{tuple(arguments)}: reported success but the domain's post-condition says {outcome.failure}"
+        problems = success_problems(primitive, start_state, result.state, arguments)
+        assert not problems, f"{primitive}{tuple(arguments)}: reported success, but {'; '.join(problems)}"
     check_observation(result.observation, result.state, tuple(result.state.objects))
+
+
+class _CheckedExecutions:
+    """A simulator whose every execution is checked with :func:`check_result` and counted."""
+
+    def __init__(self, simulator: Any, successes: dict[str, int]) -> None:
+        self.simulator = simulator
+        self.successes = successes
+        self.executions = 0
+
+    def get_state(self) -> Any:
+        return self.simulator.get_state()
+
+    def set_state(self, snapshot: Any) -> None:
+        self.simulator.set_state(snapshot)
+
+    def geometric_state(self) -> Any:
+        return self.simulator.geometric_state()
+
+    def execute(self, primitive: str, arguments: Sequence[str], action: np.ndarray) -> Any:
+        start = self.simulator.geometric_state()
+        result = self.simulator.execute(primitive, arguments, action)
+        check_result(result, primitive, arguments, start)
+        self.executions += 1
+        self.successes[primitive] = self.successes.get(primitive, 0) + int(result.success)
+        return result
 
 
 def check_simulator(
     make_simulator: Callable[[], Any],
     task_ids: Sequence[str] = DEFAULT_TASKS,
     seeds: Sequence[int] = DEFAULT_SEEDS,
+    skeleton_steps: int = SKELETON_STEPS,
 ) -> dict[str, Any]:
     """Run every conformance check on simulators built by ``make_simulator``; raises
-    ``AssertionError`` naming the first violation. Returns a small report (successes per primitive)."""
+    ``AssertionError`` naming the first violation.
+
+    Returns a small report: ``executions`` and ``successes`` per primitive of the first-skill
+    checks, ``skeleton_executions`` and ``skeleton_successes`` of the skeleton walks."""
     from t2m_core.domain.primitives import get_primitive
     from t2m_core.protocols import Simulator
+    from t2m_core.skeleton_search import search_skeleton
     from t2m_core.tasks import load_task
 
     first, second = make_simulator(), make_simulator()
-    report: dict[str, Any] = {"executions": 0, "successes": {}}
+    report: dict[str, Any] = {"executions": 0, "successes": {}, "skeleton_executions": 0, "skeleton_successes": {}}
     try:
         assert isinstance(first, Simulator), f"{type(first).__name__} does not implement the Simulator protocol"
         for task_id in task_ids:
@@ -128,6 +172,18 @@ def check_simulator(
                     f"{task_id} seed {seed}: {call} straight after reset gave {direct.failure!r}, from a snapshot {result.failure!r}"
                 )
                 _assert_states_equal(direct.state, result.state, f"{task_id} seed {seed}: run without restore", atol=1e-9)
+                # the first skills of the skeleton with sampled parameters: every success is judged
+                first.reset(task, seed=seed)
+                checked = _CheckedExecutions(first, report["skeleton_successes"])
+                search_skeleton(checked, task.reference_skeleton[:skeleton_steps], np.random.default_rng(seed),
+                                tries_per_skill=SKELETON_TRIES, retries_after_backtrack=1,
+                                max_executions=SKELETON_TRIES * skeleton_steps)
+                report["skeleton_executions"] += checked.executions
+        successes = sum(report["successes"].values()) + sum(report["skeleton_successes"].values())
+        assert successes > 0, (
+            f"no primitive succeeded in {report['executions'] + report['skeleton_executions']} executions: "
+            "no success could be confirmed (is the backend executing the motions?)"
+        )
     finally:
         first.close()
         second.close()

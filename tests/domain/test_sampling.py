@@ -3,6 +3,7 @@ the samplers' geometry, and determinism per seed."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -16,7 +17,7 @@ from t2m_core.domain.geometry import (
     quat_yaw,
     rotate,
 )
-from t2m_core.domain.predicates import PropositionError, Scene, evaluate, holds_all
+from t2m_core.domain.predicates import Proposition, PropositionError
 from t2m_core.domain.sampling import (
     DROP_HEIGHT,
     SampledScene,
@@ -27,17 +28,65 @@ from t2m_core.domain.sampling import (
     sample_task,
 )
 from t2m_core.tasks import list_tasks, load_task
+from t2m_core.testing.success_facts import bottom_z, centre_in_support_frame, top_z, world_bounds
 
 TASKS = {task.id: task for task in list_tasks()}
 RACK_IN_WORKSPACE = ["aligned(rack)", "poslimit(rack)", "inworkspace(rack)", "on(rack, table)"]
 RACK_BEYOND = ["aligned(rack)", "poslimit(rack)", "beyondworkspace(rack)", "on(rack, table)"]
 
 
+ZONE_TESTS = {
+    "inworkspace": lambda x, r: x >= 0.40 and r < 0.70,
+    "incollisionzone": lambda x, r: 0.40 <= x < 0.50 and r < 0.70,
+    "inoperationalzone": lambda x, r: 0.50 <= x < 0.60 and r < 0.70,
+    "inobstructionzone": lambda x, r: x >= 0.575 and r < 0.70,
+    "beyondworkspace": lambda x, r: r >= 0.70,
+}
+"""Zone membership as the world page states it (docs/guide/world.md#constants-and-zones)."""
+RACK_POSITIONS = {"inworkspace": (0.44, -0.33), "beyondworkspace": (0.82, 0.0)}
+
+
+def independent_problems(proposition: str, state) -> list[str]:
+    """Why ``state``'s poses contradict ``proposition``, by plain geometry written here rather than
+    the predicates the sampler accepted its samples with. ``free``, ``nonblocking`` and the sampling
+    markers are judged by their own tests below."""
+    prop = Proposition.parse(proposition)
+    name, args, poses = prop.predicate, prop.args, state.objects
+    a = args[0]
+    if name == "on":
+        support = args[1]
+        centre, low, high = centre_in_support_frame(a, poses[a], support, poses[support])
+        if abs(bottom_z(a, poses[a]) - top_z(support, poses[support])) > 1e-6:
+            return [f"{prop}: {a} does not rest on {support}'s top"]
+        if np.any(centre < low) or np.any(centre > high):
+            return [f"{prop}: {a}'s centre is not over {support}"]
+    elif name == "inhand" and (state.held != a or bottom_z(a, poses[a]) < 0.1):
+        return [f"{prop}: {a} is not held up in the gripper"]
+    elif name == "under":
+        centre, low, high = centre_in_support_frame(a, poses[a], args[1], poses[args[1]])
+        if top_z(a, poses[a]) >= top_z(args[1], poses[args[1]]) or np.any(centre < low) or np.any(centre > high):
+            return [f"{prop}: {a} is not below and inside {args[1]}"]
+    elif name in ZONE_TESTS and not (a == "rack" and name == "inworkspace"):  # the rack's x is set by poslimit
+        x, y = poses[a].position[:2]
+        if not ZONE_TESTS[name](x, math.hypot(x, y)):
+            return [f"{prop}: {a} at ({x:.3f}, {y:.3f}) is outside the zone"]
+    elif name == "poslimit":
+        offsets = [np.max(np.abs(poses[a].position[:2] - centre)) for centre in RACK_POSITIONS.values()]
+        if min(offsets) > 0.01 + 1e-9:
+            return [f"{prop}: {a} is not within 0.01 m of {list(RACK_POSITIONS.values())}"]
+    elif name == "infront":
+        (x, y), (low, high) = poses[a].position[:2], world_bounds(args[1], poses[args[1]])
+        if not (x < low[0] and low[1] < y < high[1]):
+            return [f"{prop}: {a} at ({x:.3f}, {y:.3f}) is not in front of {args[1]}"]
+    return []
+
+
 def assert_valid(scene: SampledScene, objects, propositions) -> None:
-    """Every proposition holds, objects keep the task order, nothing interpenetrates."""
+    """Every proposition's geometry holds (judged independently), objects keep the task order,
+    nothing interpenetrates."""
     state = scene.state
     assert tuple(state.objects) == tuple(objects)
-    failing = [str(p) for p in propositions if not evaluate(p, Scene(state, propositions))]
+    failing = [problem for p in propositions for problem in independent_problems(str(p), state)]
     assert not failing, f"seed {scene.accepted_seed}: {failing}"
     resting = [n for n in objects if n not in ("table", state.held)]
     under = {(p.split("(")[1].split(",")[0], "rack") for p in map(str, propositions) if p.startswith("under(")}
@@ -61,7 +110,6 @@ def check_task_seeds(task_id: str, seeds: range) -> None:
         scene = sample_task(task, seed)
         assert scene.accepted_seed == seed + scene.rejections
         assert_valid(scene, task.objects, task.initial_state)
-        assert holds_all(task.initial_state, scene.state)
 
 
 @pytest.mark.parametrize("task_id", sorted(TASKS))
@@ -169,7 +217,6 @@ def test_box_on_rack_rests_on_its_top() -> None:
         assert box.position[2] == pytest.approx(0.16 + 0.059)
         local = rotate(quat_conjugate(rack.quaternion), box.position - rack.position)
         assert abs(local[0]) <= 0.11 and abs(local[1]) <= 0.16
-        assert evaluate("on(red_box, rack)", scene.state) and not evaluate("on(red_box, table)", scene.state)
 
 
 def test_stacked_box_uses_the_fractional_stable_region() -> None:
@@ -187,7 +234,7 @@ def test_stacked_box_uses_the_fractional_stable_region() -> None:
 def test_under_redirects_into_the_rack_footprint() -> None:
     props = [*RACK_BEYOND, "under(cyan_box, rack)", "on(cyan_box, table)"]
     for scene in sample_many(["table", "rack", "cyan_box"], props):
-        assert evaluate("under(cyan_box, rack)", scene.state)
+        assert independent_problems("under(cyan_box, rack)", scene.state) == []
         assert scene.state.objects["cyan_box"].position[2] == pytest.approx(0.035)
 
 
@@ -222,7 +269,7 @@ def test_inhand_box_grasp_coincides_with_the_home_pose() -> None:
     for scene in sample_many(["table", "red_box"], ["inhand(red_box)"]):
         state = scene.state
         assert state.held == "red_box"
-        assert evaluate("inhand(red_box)", state)
+        assert independent_problems("inhand(red_box)", state) == []
         box = state.objects["red_box"]
         grasp = rotate(quat_conjugate(box.quaternion), np.array([0.402, 0.0, 0.40]) - box.position)
         assert np.all(np.abs(grasp[:2]) <= 0.01 + 1e-12)
@@ -248,7 +295,7 @@ def test_tippable_tips_about_one_in_ten() -> None:
     tipped = [s for s in scenes if "red_box" in s.tipped]
     assert 15 <= len(tipped) <= 50
     assert all(not is_upright(s.state.objects["red_box"].quaternion) for s in tipped)
-    assert all(evaluate("on(red_box, table)", s.state, props) for s in tipped)  # tippable relaxes upright
+    assert all(abs(bottom_z("red_box", s.state.objects["red_box"])) < 1e-6 for s in tipped)  # resting, tipped
 
 
 def test_random_robot_pose_range() -> None:
@@ -268,3 +315,16 @@ def test_unsatisfiable_and_invalid_inputs_fail_clearly() -> None:
         sample_initial_state(["table", "red_box"], ["on(green_box, table)"], 0)
     with pytest.raises(KeyError, match="unknown object 'green_box'"):
         sample_initial_state(["table", "green_box"], [], 0)
+
+
+def test_the_independent_checks_catch_a_wrong_sample() -> None:
+    task = load_task("task0")
+    state = sample_task(task, 0).state
+    box = "yellow_box"
+    moved = {**state.objects, box: dataclasses.replace(state.objects[box], position=state.objects[box].position + [0.0, 0.0, 0.05])}
+    floating = dataclasses.replace(state, objects=moved)
+    assert independent_problems(f"on({box}, table)", state) == []
+    assert independent_problems(f"on({box}, table)", floating) != []
+    assert independent_problems(f"on({box}, rack)", state) != []
+    assert independent_problems(f"inhand({box})", state) != []
+    assert independent_problems("beyondworkspace(rack)", state) != []

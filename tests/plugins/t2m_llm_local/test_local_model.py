@@ -5,8 +5,6 @@ These load the real embedded model (marked ``llm`` and ``slow``); one instance i
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
@@ -109,4 +107,17 @@ def test_hooks_register_local_and_stay_light():
     assert spec.name == "local" and spec.options is LocalModelOptions
     assert LocalModelOptions().model_path is None and LocalModelOptions().n_ctx == 8192
     check_import_light("t2m_llm_local.hooks")
-    assert math.isfinite(LocalModelOptions(n_threads=2).n_threads)
+
+
+def test_thread_options_are_bounded_and_default_to_the_cores(monkeypatch):
+    import pydantic
+
+    from t2m_llm_local import llama
+
+    assert LocalModelOptions(n_threads=2).n_threads == 2
+    for bad in (0, 257):
+        with pytest.raises(pydantic.ValidationError):
+            LocalModelOptions(n_threads=bad)
+    for cores, generation, batch in ((1, 1, 1), (2, 1, 2), (16, 8, 8), (None, 1, 2)):
+        monkeypatch.setattr(llama.os, "cpu_count", lambda cores=cores: cores)
+        assert (llama.default_threads(), llama.default_batch_threads()) == (generation, batch), cores
