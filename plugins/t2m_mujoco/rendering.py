@@ -10,6 +10,8 @@ import os
 
 import numpy as np
 
+from t2m_core.simulation.scene import camera_intrinsics
+
 
 def prefer_headless_gl() -> None:
     """Use EGL for offscreen rendering unless the user chose a backend or a display exists."""
@@ -61,10 +63,8 @@ class CameraRenderer:
     def intrinsics(self, camera: str) -> np.ndarray:
         """``(3, 3)`` pinhole matrix of ``camera`` at this renderer's size."""
         self.check_camera(camera)
-        height, width = self._renderer.height, self._renderer.width
-        fovy = np.deg2rad(self.model.cam_fovy[self.model.camera(camera).id])
-        focal = 0.5 * height / np.tan(0.5 * fovy)
-        return np.array([[focal, 0.0, width / 2], [0.0, focal, height / 2], [0.0, 0.0, 1.0]])
+        fovy = float(self.model.cam_fovy[self.model.camera(camera).id])
+        return camera_intrinsics(fovy, self._renderer.width, self._renderer.height)
 
     def close(self) -> None:
         self._renderer.close()

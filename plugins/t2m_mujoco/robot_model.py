@@ -1,28 +1,17 @@
 """The Franka Panda arm and hand as a MuJoCo model, loaded from the URDF that ships with pybullet_data.
 
 The URDF (``pybullet_data/franka_panda/panda.urdf``) carries the real Panda kinematics; MuJoCo 4 reads
-it once ``package://`` is stripped and the mesh directory is set. This module patches it into a
-controllable robot:
+it once ``package://`` is stripped and the mesh directory is set. It is patched as every backend
+patches it (:mod:`t2m_core.simulation.robot`: the EE point between long finger pads 0.251 m from
+link 7, the hand without its −45° twist, collision filtering, cylinder inertias), in MuJoCo's terms:
 
-* **Tool mount and fingers.** TableEnv's end-effector operational point is 0.251 m from the link-7
-  frame (the Robotiq 2F-85 of the original). The Franka hand sits on the flange (0.107 m) and its
-  stock fingers end only 0.047 m below its palm, too short to grasp the 0.118 m red box at its centre
-  without the palm striking the box top. Each finger therefore carries a 0.04 m longer pad (as
-  custom Franka fingertips do); the operational point :data:`EE_SITE` lies between the pads, 0.144 m
-  below the hand frame and 8 mm above the tips, i.e. exactly 0.251 m from link 7, so q_home puts it
-  at (0.402, 0, 0.400) pointing down. The hand is mounted without the Franka's −45° twist so that at
-  q_home the jaw closes along world y, the Robotiq's direction in the original (a yaw-0 grasp
-  closes across an object's y). Stroke 0–0.04 m per finger (80 mm jaw, the class of the 2F-85's
-  85 mm). The pads are the only finger geometry that touches a grasped object (the §3.3 grasp test
-  reads their contacts); a body box stands in for the rest of each finger. The two finger joints
-  are coupled by an equality and driven by one position actuator.
+* **Fingers.** Each finger gets a pad box and a body box; the stock finger meshes do not collide. The
+  pads are the only finger geometry that touches a grasped object (the grasp test reads their
+  contacts). The two finger joints are coupled by an equality and driven by one position actuator.
 * **Arm.** Position servos on the 7 joints (the controller feeds them IK targets every 1/60 s tick),
-  gravity compensation on every robot body, armature for stiffness at 2 ms steps. The URDF's
-  placeholder inertias (0.1 kg·m² everywhere) are replaced by solid-cylinder estimates from each
-  link's mass.
-* **Collision filtering.** Links 1–4 never reach the objects at the 0.40 m lift height, so they
-  collide with nothing; the base (link 0) collides only with objects (it stands on the table). The
-  robot never collides with itself.
+  gravity compensation on every robot body, armature for stiffness at 2 ms steps.
+* **Collision filtering** with contype/conaffinity bits: links 1–4 collide with nothing, the base
+  only with objects, the robot never with itself.
 """
 
 from __future__ import annotations
@@ -30,34 +19,36 @@ from __future__ import annotations
 import functools
 import warnings
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-Q_HOME = np.array([0.0, -0.5, 0.0, -2.28, 0.0, 1.78, 0.0])
-"""(7,) home joint configuration in radians (tableenv.md §3.1)."""
+from t2m_core.simulation.robot import (
+    ARM_JOINTS,
+    BASE_LINK,
+    EE_IN_HAND,
+    FINGER_BODY_CENTER,
+    FINGER_BODY_HALF,
+    FINGER_JOINTS,
+    FINGER_LINKS,
+    FINGER_OPEN,
+    GRIPPER_FORCE,
+    GRIPPER_KP,
+    GRIPPER_KV,
+    HAND_LINK,
+    PAD_CENTER_Z,
+    PAD_FRICTION,
+    PAD_HALF,
+    PAD_NAMES,
+    UNCOLLIDING_LINKS,
+    VISUAL_FROM_COLLISION,
+    panda_urdf_dir,
+    placeholder_inertia,
+)
 
-EE_OFFSET_FROM_LINK7 = 0.251
-"""Metres from the link-7 frame to the EE operational point along its z axis (tableenv.md §3.1)."""
-
-FLANGE_TO_HAND = 0.107
-"""Metres from link 7 to the hand frame (the Panda flange)."""
-
-EE_IN_HAND = EE_OFFSET_FROM_LINK7 - FLANGE_TO_HAND
-"""Metres from the hand frame to the EE point between the pads (0.144)."""
-
-FINGER_EXTENSION = 0.04
-"""Metres added to each stock finger by its long pad."""
-
-FINGER_OPEN = 0.04
-"""Finger joint position (m) of a fully open gripper; 0 is fully closed."""
-
-ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
-FINGER_JOINTS = ("panda_finger_joint1", "panda_finger_joint2")
 EE_SITE = "ee"
-HAND_BODY = "panda_hand"
-BASE_BODY = "panda_link0"
-PAD_GEOMS = ("left_pad", "right_pad")
+HAND_BODY = HAND_LINK
+BASE_BODY = BASE_LINK
+PAD_GEOMS = PAD_NAMES
 ROBOT_PREFIX = "panda_"
 
 # contype / conaffinity bits (a pair collides when contype_a & conaffinity_b or the reverse)
@@ -70,22 +61,6 @@ ARM_KP = np.array([4000.0, 4000.0, 4000.0, 4000.0, 2000.0, 2000.0, 2000.0])
 ARM_KV = np.array([200.0, 200.0, 200.0, 200.0, 80.0, 80.0, 80.0])
 """(7,) joint servo damping, N·m·s/rad (near critical with the armature below)."""
 ARM_ARMATURE = 0.1
-GRIPPER_KP = 400.0
-"""Finger servo stiffness, N/m (tableenv.md §3.3 gripper gains (400, 40))."""
-GRIPPER_KV = 40.0
-GRIPPER_FORCE = 70.0
-"""Newtons: the Franka hand's continuous grip force."""
-
-VISUAL_FROM_COLLISION = ("panda_link5", "panda_link6")
-"""Links whose visual .obj files (no texture coordinates) render as holes; their collision meshes
-are drawn instead, as the URDF already does for link 7."""
-
-PAD_HALF = (0.0105, 0.005, 0.032)
-"""Half sizes (m) of a finger pad box: finger width, thickness, length along the finger."""
-FINGER_ORIGIN_IN_HAND = 0.0584
-"""Metres from the hand frame to the finger joints (URDF)."""
-STOCK_FINGER_LENGTH = 0.0538
-"""Metres: length of the stock finger mesh along the hand's z."""
 
 
 @dataclass(frozen=True)
@@ -106,18 +81,6 @@ class RobotIndices:
     joint_high: np.ndarray  # (7,) rad
 
 
-def panda_urdf_dir() -> Path:
-    """Directory of pybullet_data's Franka Panda (URDF and meshes); raises with the fix if missing."""
-    try:
-        import pybullet_data
-    except ImportError as error:  # pragma: no cover - pybullet is a pinned dependency
-        raise RuntimeError("pybullet_data is needed for the Panda model: pip install pybullet==3.2.7") from error
-    directory = Path(pybullet_data.getDataPath()) / "franka_panda"
-    if not (directory / "panda.urdf").is_file():
-        raise RuntimeError(f"{directory / 'panda.urdf'} is missing; reinstall pybullet==3.2.7")
-    return directory
-
-
 @functools.cache
 def _patched_urdf_text() -> str:
     directory = panda_urdf_dir()
@@ -129,12 +92,6 @@ def _patched_urdf_text() -> str:
     head, _, rest = text.partition("<robot ")
     tag, _, body = rest.partition(">")
     return f"{head}<robot {tag}>{compiler}{body}"
-
-
-def _cylinder_inertia(mass: float, radius: float = 0.06, length: float = 0.15) -> list[float]:
-    """Diagonal inertia (kg·m²) of a solid cylinder, a stand-in for a link's placeholder inertia."""
-    lateral = mass * (3 * radius**2 + length**2) / 12
-    return [lateral, lateral, mass * radius**2 / 2]
 
 
 def load_panda_spec():
@@ -151,7 +108,7 @@ def load_panda_spec():
             if body.mass > 0:
                 body.explicitinertial = True
                 body.fullinertia = [np.nan] * 6
-                body.inertia = _cylinder_inertia(body.mass, 0.02 if "finger" in body.name else 0.06)
+                body.inertia = placeholder_inertia(body.mass, 0.02 if "finger" in body.name else 0.06)
 
     hand = spec.body(HAND_BODY)
     hand.quat = [1.0, 0.0, 0.0, 0.0]  # no −45° twist: the jaw closes along world y at q_home
@@ -169,24 +126,24 @@ def load_panda_spec():
                 geom.meshname = collision_mesh[body_name]
             continue
         geom.group = 3
-        if body_name in ("panda_leftfinger", "panda_rightfinger"):
+        if body_name in FINGER_LINKS:
             geom.contype = geom.conaffinity = 0  # replaced by pad + body boxes below
         elif body_name == BASE_BODY:
             geom.contype, geom.conaffinity = ROBOT_BIT, OBJECT_BIT
-        elif body_name in ("panda_link1", "panda_link2", "panda_link3", "panda_link4"):
+        elif body_name in UNCOLLIDING_LINKS:
             geom.contype = geom.conaffinity = 0
         else:
             geom.contype, geom.conaffinity = ROBOT_BIT, TABLE_BIT | OBJECT_BIT
 
-    for finger, side in (("panda_leftfinger", 1.0), ("panda_rightfinger", -1.0)):
+    for finger, pad_name, side in zip(FINGER_LINKS, PAD_NAMES, (1.0, -1.0), strict=True):
         body = spec.body(finger)
         pad = body.add_geom(
-            name=f"{'left' if side > 0 else 'right'}_pad",
+            name=pad_name,
             type=mj.mjtGeom.mjGEOM_BOX,
             size=list(PAD_HALF),
-            pos=[0.0, side * PAD_HALF[1], STOCK_FINGER_LENGTH + FINGER_EXTENSION - PAD_HALF[2]],
+            pos=[0.0, side * PAD_HALF[1], PAD_CENTER_Z],
             rgba=[0.15, 0.15, 0.15, 1],
-            friction=[1.0, 0.005, 0.0001],
+            friction=[PAD_FRICTION, 0.005, 0.0001],
             priority=2,
             group=2,
         )
@@ -194,8 +151,8 @@ def load_panda_spec():
         pad.mass = 0.0
         back = body.add_geom(
             type=mj.mjtGeom.mjGEOM_BOX,
-            size=[0.0105, 0.0092, 0.027],
-            pos=[0.0, side * 0.0172, 0.027],
+            size=list(FINGER_BODY_HALF),
+            pos=[FINGER_BODY_CENTER[0], side * FINGER_BODY_CENTER[1], FINGER_BODY_CENTER[2]],
             rgba=[0.9, 0.9, 0.9, 1],
             group=3,
         )

@@ -1,16 +1,16 @@
 """Builds the MuJoCo model of a TableEnv scene from the domain's object specifications.
 
 One model per set of present objects (absent objects are simply not built, which satisfies "not in
-the observation, not physical" of tableenv.md §4.4). Every object follows
+the observation, not physical" of docs/guide/world.md#absent-objects). Every object follows
 :data:`t2m_core.domain.objects.OBJECTS` exactly: the table slab, the rack as 7 boxes whose body frame
 is the top surface, the hook as two capsules and a sphere, the boxes. Each movable object gets a free
 joint and an inactive weld to the hand that the grasp switches on.
 
-Contact parameters: the table has friction 1.0 (tableenv.md §14). Boxes and the hook have friction
+Contact parameters: the table has friction 1.0. Boxes and the hook have friction
 0.5 and a higher contact priority, so a box sliding on the table sees 0.5, the coefficient PyBullet
 produced in the original (its product of the table's 1.0 and a body's default 0.5); with MuJoCo's
 default max-combination a 0.118 m box pushed at the hook's height would tip instead of sliding.
-The hook's parts are capsules whose total length equals the cylinders' of §4.3, so the bounding box
+The hook's parts are capsules whose total length equals the cylinders' of docs/guide/world.md#frames-and-objects, so the bounding box
 (0.40 × 0.22 × 0.04) is exact; capsules rest stably on the table where cylinders chatter.
 """
 
@@ -18,28 +18,14 @@ from __future__ import annotations
 
 import functools
 import warnings
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from t2m_core.domain.objects import OBJECTS, ObjectKind, object_spec
+from t2m_core.simulation.scene import CAMERAS, FLOOR_Z, OBJECT_FRICTION, TABLE_FRICTION, camera_axes
 from t2m_mujoco import robot_model
 from t2m_mujoco.robot_model import OBJECT_BIT, TABLE_BIT
-
-OBJECT_FRICTION = 0.5
-TABLE_FRICTION = 1.0
-FLOOR_Z = -0.75
-"""Metres: a floor far below the table catches objects that fall off (they read as below the table)."""
-
-CAMERAS: dict[str, tuple[tuple[float, float, float], tuple[float, float, float], float]] = {
-    # name: (position, look-at point, vertical field of view in degrees)
-    "front": ((1.5, 0.65, 1.25), (0.33, -0.02, 0.12), 45.0),
-    "side": ((0.45, -1.45, 0.85), (0.45, 0.0, 0.08), 45.0),
-    "top": ((0.45, 0.0, 1.6), (0.45, 0.0, 0.0), 45.0),
-}
-"""Named cameras: ``front`` shows the table, the rack and the robot from across the table."""
-DEFAULT_CAMERA = "front"
 
 
 @dataclass(frozen=True)
@@ -73,21 +59,9 @@ class SceneModel:
         return tuple(self.qpos_address)
 
 
-def _look_at(position: Sequence[float], target: Sequence[float]) -> list[float]:
-    """``xyaxes`` of a camera at ``position`` looking at ``target`` with world z up."""
-    forward = np.asarray(target, float) - np.asarray(position, float)
-    forward /= np.linalg.norm(forward)
-    right = np.cross(forward, [0.0, 0.0, 1.0])
-    if np.linalg.norm(right) < 1e-6:  # looking straight down: image "up" is world +x
-        right = np.array([0.0, -1.0, 0.0])
-    right /= np.linalg.norm(right)
-    up = np.cross(right, forward)
-    return [*right, *up]
-
-
 def _add_table(spec, mj) -> None:
     table = OBJECTS["table"]
-    body = spec.worldbody.add_body(name="table", pos=[0.0, 0.0, 0.0])  # pose = identity (§2)
+    body = spec.worldbody.add_body(name="table", pos=[0.0, 0.0, 0.0])  # pose = identity
     (slab,) = table.parts()
     geom = body.add_geom(
         name="table/slab",
@@ -129,7 +103,7 @@ def _add_object(spec, mj, name: str) -> None:
         for part in parts:
             geom = body.add_geom(name=f"{name}/{part.name}", type=mj.mjtGeom.mjGEOM_BOX, size=[s / 2 for s in part.size],
                                  pos=list(part.center), **common)
-            geom.mass = obj.mass / len(parts)  # the rack's 1 kg split equally over its 7 parts (§4.1)
+            geom.mass = obj.mass / len(parts)  # the rack's 1 kg split equally over its 7 parts
             geom.contype, geom.conaffinity = OBJECT_BIT, TABLE_BIT | OBJECT_BIT
     if not obj.movable:
         return
@@ -151,7 +125,8 @@ def _add_world_dressing(spec, mj) -> None:
     spec.worldbody.add_light(name="fill", pos=[-0.5, -0.8, 1.8], dir=[0.4, 0.4, -1.0], diffuse=[0.3, 0.3, 0.3],
                              castshadow=False)
     for name, (position, target, fovy) in CAMERAS.items():
-        spec.worldbody.add_camera(name=name, pos=list(position), xyaxes=_look_at(position, target), fovy=fovy)
+        right, up = camera_axes(position, target)
+        spec.worldbody.add_camera(name=name, pos=list(position), xyaxes=[*right, *up], fovy=fovy)
     spec.visual.headlight.ambient = [0.35, 0.35, 0.35]
     spec.visual.headlight.diffuse = [0.3, 0.3, 0.3]
 

@@ -1,16 +1,13 @@
 """The MuJoCo implementation of :class:`t2m_core.protocols.Simulator`.
 
-Reset follows tableenv.md §8.1: the domain samples a candidate (its own analytic rejections
-included), the backend drops the objects from 5 cm, moves the robot to the sampled random pose,
-settles for 1-60 ticks and re-checks every initial proposition; a physical rejection moves on to the
-next seed. ``execute`` runs the domain's motion steps (:mod:`t2m_mujoco.executor`) and applies the
-domain's disturbance test, mid-sequence checks and post-conditions, exactly as the execution
-contract of :mod:`t2m_core.domain.primitives.base` describes.
+Reset and execution are the core's (:mod:`t2m_core.simulation.reset`, :mod:`t2m_core.simulation.execution`)
+driving a :class:`~t2m_mujoco.world.World`: sample, drop from 5 cm, move to the sampled robot pose,
+settle, verify; run the domain's motion steps with its disturbance test, checks and post-conditions.
 """
 
 from __future__ import annotations
 
-from collections import Counter
+import dataclasses
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -20,31 +17,16 @@ from t2m_mujoco.rendering import prefer_headless_gl
 
 prefer_headless_gl()
 
-from t2m_core.domain.geometry import is_above, object_geometry  # noqa: E402
-from t2m_core.domain.objects import ObjectKind, object_spec  # noqa: E402
 from t2m_core.domain.observation import encode_observation  # noqa: E402
-from t2m_core.domain.predicates import Proposition, canonical_order, holds_all  # noqa: E402
-from t2m_core.domain.primitives import (  # noqa: E402
-    MotionKind,
-    MotionStep,
-    Outcome,
-    StepContext,
-    first_disturbed,
-    get_primitive,
-)
-from t2m_core.domain.sampling import SampledScene, SamplingError, sample_initial_state  # noqa: E402
 from t2m_core.domain.state import GeometricState  # noqa: E402
-from t2m_core.protocols import Contact, PrimitiveResult, ResetResult  # noqa: E402
-from t2m_mujoco.executor import Executor  # noqa: E402
+from t2m_core.protocols import PrimitiveResult, ResetResult  # noqa: E402
+from t2m_core.simulation.execution import execute_primitive  # noqa: E402
+from t2m_core.simulation.motion import MotionExecutor  # noqa: E402
+from t2m_core.simulation.reset import reset_to_task  # noqa: E402
 from t2m_mujoco.options import MujocoOptions  # noqa: E402
 from t2m_mujoco.rendering import CameraRenderer  # noqa: E402
 from t2m_mujoco.scene import build_scene  # noqa: E402
 from t2m_mujoco.world import Snapshot, World  # noqa: E402
-
-RESET_SETTLE_MAX_TICKS = 60
-"""§8.1 step 5: settle at most 1 s; needing all of it rejects the seed."""
-RESET_HOLD_TICKS = 10
-"""Ticks that close the fingers on an object put in hand by the sampler (§8.3, non-realistic grasp)."""
 
 
 class MujocoSimulator:
@@ -60,7 +42,7 @@ class MujocoSimulator:
     def __init__(self, options: MujocoOptions | None = None) -> None:
         self.options = options if options is not None else MujocoOptions()
         self.world: World | None = None
-        self.executor: Executor | None = None
+        self.executor: MotionExecutor | None = None
         self.task: Any = None
         self.reset_stats: dict[str, Any] = {}
         self._renderer: CameraRenderer | None = None
@@ -77,7 +59,7 @@ class MujocoSimulator:
             scene = build_scene(object_names, self.options.timestep)
             self.world = World(scene, self.options.substeps)
             frame_every = max(1, round(60 / self.options.video_fps))
-            self.executor = Executor(self.world, on_tick=self._on_tick, frame_every=frame_every)
+            self.executor = MotionExecutor(self.world, on_tick=self._on_tick, frame_every=frame_every)
         return self.world
 
     def _require_world(self) -> World:
@@ -88,131 +70,29 @@ class MujocoSimulator:
     # --- reset ------------------------------------------------------------------------------------
 
     def reset(self, task: Any, *, seed: int) -> ResetResult:
-        """Sample, settle and verify ``task``'s initial state from ``seed`` (tableenv.md §8.1).
+        """Sample, settle and verify ``task``'s initial state from ``seed`` (docs/guide/primitives.md#initial-state-sampling).
 
         Raises:
             SamplingError: no candidate seed was accepted within ``max_reset_attempts``.
         """
-        names = tuple(task.objects)
-        propositions = canonical_order(task.initial_state)
-        world = self._load(names)
+        self._load(tuple(task.objects))
         self.task = task
-        candidate = int(seed)
-        sampler_rejections = 0
-        reasons: Counter[str] = Counter()
-        for _ in range(self.options.max_reset_attempts):
-            sampled = sample_initial_state(names, propositions, candidate)
-            sampler_rejections += sampled.rejections
-            reason = self._realise(sampled, propositions)
-            if reason is None:
-                self.reset_stats = {
-                    "sampler_rejections": sampler_rejections,
-                    "physics_rejections": sum(reasons.values()),
-                    "reasons": dict(reasons),
-                }
-                world.ticks = 0
-                world.canonicalize()
-                state = world.geometric_state()
-                return ResetResult(
-                    state=state,
-                    observation=encode_observation(state, names),
-                    accepted_seed=sampled.accepted_seed,
-                    rejections=sampler_rejections + sum(reasons.values()),
-                )
-            reasons[reason] += 1
-            candidate = sampled.accepted_seed + 1
-        raise SamplingError(
-            f"no initial state of {getattr(task, 'id', names)} survived physics in {self.options.max_reset_attempts} "
-            f"candidates from seed {seed}; rejections: {dict(reasons)}",
-            "raise max_reset_attempts, or check the task's initial state",
-        )
-
-    def _realise(self, sampled: SampledScene, propositions: Sequence[Proposition]) -> str | None:
-        """Load a sampled candidate into physics; ``None`` if it survives, else the rejection reason."""
-        world, executor = self.world, self.executor
-        assert world is not None and executor is not None
-        world.reset_robot()
-        drop = sampled.drop_state
-        for name in world.scene.free_names:
-            world.set_object_pose(name, drop.objects[name])
-        world.forward()
-        held = drop.held
-        if held is not None:
-            # Non-realistic grasp (§3.3): weld first, then close the fingers onto the object.
-            world.attach(held)
-            world.set_gripper(0.0)
-            world.tick(RESET_HOLD_TICKS)
-            world.set_gripper(world.finger_q())
-            if _touches_arm(world, held):
-                return "held_object_touches_robot"
-        move = MotionStep(MotionKind.MOVE, "random_pose", sampled.robot_pose.position, sampled.robot_pose.yaw)
-        executor.begin_primitive()
-        if executor.run(move).failure is not None:
-            return "robot_pose_unreachable"
-        if executor.settle(RESET_SETTLE_MAX_TICKS / 60.0) >= RESET_SETTLE_MAX_TICKS:
-            return "did_not_settle"
-        state = world.geometric_state()
-        for name in world.scene.free_names:
-            if state.objects[name].position[2] < 0.0:
-                return "below_table"
-        base = world.scene.robot.base_body
-        base_geoms = np.flatnonzero(world.model.geom_bodyid == base)
-        object_owners = [world.scene.owners.index(n) for n in world.scene.free_names]
-        if world.contacts_between(base_geoms, object_owners):
-            return "touches_robot_base"
-        for prop in propositions:
-            if prop.predicate == "on" and object_spec(prop.args[1]).kind is not ObjectKind.TABLE:
-                child, parent = prop.args
-                if not is_above(object_geometry(child, state.objects[child]), object_geometry(parent, state.objects[parent])):
-                    return "fell_off_support"
-        if not holds_all(propositions, state):
-            return "propositions_failed"
-        return None
+        result, self.reset_stats = reset_to_task(self.world, self.executor, task, seed, self.options.max_reset_attempts)
+        return result
 
     # --- execution --------------------------------------------------------------------------------
 
     def execute(self, primitive: str, arguments: Sequence[str], action: np.ndarray) -> PrimitiveResult:
-        """Run one primitive with a normalised ``(4,)`` action in ``[-1, 1]`` (tableenv.md §10).
+        """Run one primitive with a normalised ``(4,)`` action in ``[-1, 1]`` (docs/guide/primitives.md).
 
         Raises:
             KeyError: unknown primitive. ValueError: bad arguments or action.
         """
         world = self._require_world()
-        executor = self.executor
-        assert executor is not None
-        spec = get_primitive(primitive)
-        action = _checked_action(action, spec.action_dim)
-        start = world.geometric_state()
-        arguments = spec.check_arguments(start, arguments)
         self._frames = []
-        world.canonicalize()
-        executor.begin_primitive()
-        contacts: list[Contact] = []
-        reason = spec.precheck(start, arguments, action)
-        if reason is None:
-            for step in spec.motion(start, arguments, action):
-                report = executor.run(step)
-                contacts.extend(report.contacts)
-                reason = report.failure
-                if reason is None:
-                    now = world.geometric_state()
-                    reason = first_disturbed(start, now, step.disturbance_objects)
-                    if reason is None and step.check is not None:
-                        reason = step.check(StepContext(start, now, arguments, world.distance))
-                if reason is not None:
-                    break
-        end = world.geometric_state()
-        outcome = Outcome.failed(reason) if reason is not None else spec.outcome(start, end, arguments)
+        result = execute_primitive(world, self.executor, primitive, arguments, action)
         frames, self._frames = self._frames, []
-        return PrimitiveResult(
-            success=outcome.success,
-            truncated=outcome.truncated,
-            failure=outcome.failure,
-            state=end,
-            observation=encode_observation(end, world.scene.object_names),
-            contacts=tuple(contacts),
-            frames=tuple(frames),
-        )
+        return dataclasses.replace(result, frames=tuple(frames))
 
     # --- state ------------------------------------------------------------------------------------
 
@@ -255,7 +135,7 @@ class MujocoSimulator:
         rendered, instead of collecting them in the results; ``None`` stops streaming."""
         self._frame_sink = sink
 
-    def _on_tick(self, world: World) -> None:
+    def _on_tick(self) -> None:
         if self._frame_sink is None and not self.options.record_video:
             return
         frame = self.render()
@@ -270,30 +150,3 @@ class MujocoSimulator:
             self._renderer = None
         self.world = None
         self.executor = None
-
-
-def _checked_action(action: np.ndarray, dim: int) -> np.ndarray:
-    array = np.asarray(action, dtype=np.float64)
-    if array.shape != (dim,):
-        raise ValueError(f"action must have shape ({dim},), got {array.shape}")
-    if not np.all(np.isfinite(array)):
-        raise ValueError(f"action must be finite, got {array}")
-    if np.any(np.abs(array) > 1.0 + 1e-6):
-        raise ValueError(f"action must be normalised to [-1, 1], got {array}")
-    return np.clip(array, -1.0, 1.0)
-
-
-def _touches_arm(world: World, held: str) -> bool:
-    """Whether the held object touches a robot part other than the fingers (§8.3 step 4)."""
-    fingers = {world.model.body("panda_leftfinger").id, world.model.body("panda_rightfinger").id}
-    data = world.data
-    owner_robot = world.scene.owners.index("robot")
-    held_geoms = set(world.geoms_of(held).tolist())
-    for i in range(data.ncon):
-        g1, g2 = int(data.contact.geom[i][0]), int(data.contact.geom[i][1])
-        other = g2 if g1 in held_geoms else g1 if g2 in held_geoms else None
-        if other is None or world.scene.geom_owner[other] != owner_robot:
-            continue
-        if world.model.geom_bodyid[other] not in fingers:
-            return True
-    return False

@@ -1,23 +1,27 @@
 """The simulated world: one compiled scene, its ``MjData`` and the queries every other module uses.
 
 It owns time (ticks of 1/60 s, each one ``mj_step`` call with ``substeps`` physics steps), object
-poses and twists, the grasp weld, contacts and closest distances, and snapshots. It knows nothing
-about primitives: :mod:`t2m_mujoco.executor` drives it.
+poses and twists, the grasp weld, contacts and closest distances, and snapshots. It is MuJoCo's
+:class:`~t2m_core.simulation.backend.PhysicsBackend` and knows nothing about primitives: the core's
+motion executor drives it.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from t2m_core.domain.constants import EPS_TWIST
 from t2m_core.domain.state import GeometricState, ObjectPose
 from t2m_core.protocols import Contact
-from t2m_mujoco.controller import InverseKinematics, index_slice, rotation_error
-from t2m_mujoco.robot_model import FINGER_OPEN, Q_HOME
+from t2m_core.simulation.backend import PhysicsBackend
+from t2m_core.simulation.kinematics import rotation_error
+from t2m_core.simulation.robot import FINGER_OPEN, Q_HOME
+from t2m_core.simulation.rules import TwistWatch
+from t2m_mujoco import contacts
+from t2m_mujoco.controller import IKResult, InverseKinematics, SweepImpedance, index_slice
 from t2m_mujoco.scene import SceneModel
 
 IDENTITY_XYZW = np.array([0.0, 0.0, 0.0, 1.0])
@@ -55,7 +59,7 @@ class Snapshot:
     ticks: int
 
 
-class World:
+class World(PhysicsBackend):
     """A scene being simulated.
 
     Args:
@@ -81,10 +85,13 @@ class World:
             [scene.dof_address[n] + k for n in self._free for k in range(6)], dtype=int
         ).reshape(len(self._free), 6)
         self._body_ids = np.array([scene.body[n] for n in scene.object_names], dtype=int)
-        self._previous_twist: np.ndarray | None = None
-        self.contact_log: list[Contact] = []
+        self._twist_watch = TwistWatch()
         self._arm_ctrl = index_slice(self.robot.arm_actuators)
         self._site_velocity = np.empty(6)
+        self._impedance = SweepImpedance(self.model, self.data, self.robot)
+        self._finger_geoms = contacts.finger_geoms(self)
+        self.home_rotation = self.ik.home_rotation
+        self.free_names = scene.free_names
 
     # --- time -------------------------------------------------------------------------------------
 
@@ -130,13 +137,29 @@ class World:
         error = rotation_error(rotation, self.data.site_xmat[self.robot.ee_site].reshape(3, 3))
         return math.sqrt(float(error @ error))
 
+    def solve_ik(self, position: np.ndarray, rotation: np.ndarray, seed: np.ndarray, null_target: np.ndarray) -> IKResult:
+        """DLS IK on a private ``MjData`` (:meth:`InverseKinematics.solve`)."""
+        return self.ik.solve(position, rotation, seed, null_target)
+
+    def track_ik(self, q: np.ndarray, position: np.ndarray, rotation: np.ndarray, null_target: np.ndarray) -> np.ndarray:
+        return self.ik.track(q, position, rotation, null_target)
+
+    def begin_compliance(self) -> None:
+        self._impedance.begin()
+
+    def apply_compliance(self, position_target: np.ndarray, rotation_target: np.ndarray) -> None:
+        self._impedance.apply(position_target, rotation_target)
+
+    def end_compliance(self) -> None:
+        self._impedance.end()
+
     def reset_robot(self, q: np.ndarray = Q_HOME) -> None:
         """Clear the whole simulation state (velocities, warm start, time, sleep), set the joints
-        directly (no simulation) and open the gripper (tableenv.md §3.3 robot reset). Clearing
+        directly (no simulation) and open the gripper (docs/guide/world.md#the-robot). Clearing
         everything makes a reset independent of what was simulated before it."""
         self._mujoco.mj_resetData(self.model, self.data)
         self.ticks = 0
-        self._previous_twist = None
+        self._twist_watch.forget()
         data = self.data
         data.qpos[self.robot.arm_qpos] = q
         data.qvel[self.robot.arm_dof] = 0.0
@@ -162,6 +185,11 @@ class World:
         dof = self.scene.dof_address[name]
         self.data.qvel[dof : dof + 6] = 0.0
 
+    def place_objects(self, poses: Mapping[str, ObjectPose]) -> None:
+        for name, pose in poses.items():
+            self.set_object_pose(name, pose)
+        self.forward()
+
     def forward(self) -> None:
         self._mujoco.mj_forward(self.model, self.data)
 
@@ -180,9 +208,9 @@ class World:
         )
 
     def moving_objects(self, names: Iterable[str] | None = None) -> list[str]:
-        """Objects with any twist component ≥ 0.001 after averaging with the previous reading (§6).
+        """Objects with any twist component ≥ 0.001 after averaging with the previous reading (docs/guide/world.md#geometric-tests).
 
-        A held object is rigidly attached in the reference (§3.3 step 4), so it moves when the hand
+        A held object is rigidly attached in the reference (docs/guide/world.md#grasping), so it moves when the hand
         does: it is judged by the hand's twist. The weld equality is slightly soft, and a held hook
         keeps rotating in it at a few mrad/s for about a second after the arm has stopped, which
         otherwise made every "wait until stable" after a Pick or a Pull run ~35-55 extra ticks."""
@@ -194,20 +222,18 @@ class World:
             hand_twist = np.empty(6)
             self._mujoco.mj_objectVelocity(self.model, self.data, self._mujoco.mjtObj.mjOBJ_BODY, self.robot.hand_body, hand_twist, 0)
             twist[self._free.index(self.held)] = hand_twist  # (angular, linear); only magnitudes matter
-        averaged = twist if self._previous_twist is None else 0.5 * (twist + self._previous_twist)
-        self._previous_twist = twist.copy()
-        moving = np.any(np.abs(averaged) >= EPS_TWIST, axis=1)
+        moving = self._twist_watch.moving(twist)
         selected = set(self._free if names is None else names)
         return [name for name, flag in zip(self._free, moving, strict=True) if flag and name in selected]
 
     def forget_twist(self) -> None:
         """Start a fresh averaging window for :meth:`moving_objects`."""
-        self._previous_twist = None
+        self._twist_watch.forget()
 
     # --- grasp weld -------------------------------------------------------------------------------
 
     def attach(self, name: str) -> None:
-        """Weld ``name`` to the hand at its current relative pose (§3.3 step 4)."""
+        """Weld ``name`` to the hand at its current relative pose (docs/guide/world.md#grasping)."""
         mujoco, data = self._mujoco, self.data
         hand, body = self.robot.hand_body, self.scene.body[name]
         relative_position = data.xmat[hand].reshape(3, 3).T @ (data.xpos[body] - data.xpos[hand])
@@ -225,6 +251,9 @@ class World:
         # weight here keeps a held hook from sagging onto the table under compliant gains.
         self.model.body_gravcomp[self.scene.body[name]] = 1.0
         self.held = name
+
+    def pads_hold(self, name: str) -> bool:
+        return contacts.pads_hold(self, name)
 
     def release(self) -> None:
         """Switch every grasp weld off."""
@@ -255,6 +284,15 @@ class World:
                 pair = geom_pairs[index]
                 result.append((int(index), int(pair[0] if in_a[index, 0] else pair[1]), float(force[0])))
         return result
+
+    def contact_guard(self, forbidden: tuple[str, ...]) -> Callable[[], list[Contact]]:
+        return contacts.contact_guard(self, self._finger_geoms, forbidden)
+
+    def held_touches_robot(self, name: str) -> bool:
+        return contacts.held_touches_robot(self, name)
+
+    def objects_touch_base(self) -> bool:
+        return contacts.objects_touch_base(self)
 
     def owner_name(self, geom: int) -> str:
         owner = self.scene.geom_owner[geom]
@@ -313,15 +351,8 @@ class World:
             self.model.eq_data[weld, 3:10] = snapshot.weld_pose
             self.model.eq_data[weld, 10] = 1.0
         self.ticks = snapshot.ticks
-        self._previous_twist = None
+        self._twist_watch.forget()
         mujoco.mj_forward(self.model, self.data)
 
 
-def robot_geoms(world: World) -> np.ndarray:
-    """Finger geoms (pads and finger bodies): the robot parts the collision check watches (§3.2)."""
-    model = world.model
-    fingers = {model.body("panda_leftfinger").id, model.body("panda_rightfinger").id}
-    return np.array([g for g in range(model.ngeom) if model.geom_bodyid[g] in fingers and model.geom_contype[g]])
-
-
-__all__ = ["Snapshot", "World", "robot_geoms"]
+__all__ = ["Snapshot", "World"]

@@ -2,8 +2,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from t2m_mujoco.controller import InverseKinematics, null_target_facing
-from t2m_mujoco.robot_model import EE_OFFSET_FROM_LINK7, Q_HOME
+from t2m_core.simulation.kinematics import null_target_facing
+from t2m_core.simulation.robot import EE_OFFSET_FROM_LINK7, Q_HOME
+from t2m_mujoco.controller import InverseKinematics
 from t2m_mujoco.scene import build_scene
 
 
@@ -91,8 +92,9 @@ def test_reach_at_lift_height_is_the_stretched_arm_not_the_solver(scene):
 def test_sweep_impedance_is_the_operational_space_law(scene):
     """SweepImpedance's torques equal Jᵀ·Λ·(K·e − D·v) computed densely from mj_fullM, Λ =
     (J·M⁻¹·Jᵀ + εI)⁻¹, with the force capped at SOFT_MAX_FORCE and the moment at SOFT_MAX_TORQUE."""
-    from t2m_mujoco import controller
-    from t2m_mujoco.controller import SweepImpedance, rotation_error, rotation_z
+    from t2m_core.simulation import rules
+    from t2m_core.simulation.kinematics import rotation_error, rotation_z
+    from t2m_mujoco.controller import SweepImpedance
 
     model, robot = scene.model, scene.robot
     data = mujoco.MjData(model)
@@ -109,27 +111,27 @@ def test_sweep_impedance_is_the_operational_space_law(scene):
         mujoco.mj_jacSite(model, data, jacobian[:3], jacobian[3:], site)
         full = np.zeros((model.nv, model.nv))
         mujoco.mj_fullM(model, data, full)
-        inertia = np.linalg.inv(jacobian @ np.linalg.solve(full, jacobian.T) + controller.OPERATIONAL_INERTIA_REGULARISATION * np.eye(6))
+        inertia = np.linalg.inv(jacobian @ np.linalg.solve(full, jacobian.T) + rules.OPERATIONAL_INERTIA_REGULARISATION * np.eye(6))
         velocity = jacobian @ data.qvel
-        stiffness, damping = controller.SOFT_ORIENTATION_GAINS
+        stiffness, damping = rules.SOFT_ORIENTATION_GAINS
         acceleration = np.concatenate((
-            controller.SOFT_POSITION_GAINS * (position_target - position) - controller.SOFT_VELOCITY_GAINS * velocity[:3],
+            rules.SOFT_POSITION_GAINS * (position_target - position) - rules.SOFT_VELOCITY_GAINS * velocity[:3],
             stiffness * rotation_error(target_rotation, rotation) - damping * velocity[3:],
         ))
         wrench = inertia @ acceleration
         force = np.linalg.norm(wrench[:3])
-        if force > controller.SOFT_MAX_FORCE:
-            wrench[:3] *= controller.SOFT_MAX_FORCE / force
+        if force > rules.SOFT_MAX_FORCE:
+            wrench[:3] *= rules.SOFT_MAX_FORCE / force
         torque = np.linalg.norm(wrench[3:])
-        if torque > controller.SOFT_MAX_TORQUE:
-            wrench[3:] *= controller.SOFT_MAX_TORQUE / torque
+        if torque > rules.SOFT_MAX_TORQUE:
+            wrench[3:] *= rules.SOFT_MAX_TORQUE / torque
         return (jacobian.T @ wrench)[robot.arm_dof], force
 
     impedance = SweepImpedance(model, data, robot)
     for offset, capped in ((np.array([0.002, 0.0, 0.0]), False), (np.array([0.3, -0.2, 0.0]), True)):
         expected, force = dense(position + offset)
-        assert bool(force > controller.SOFT_MAX_FORCE) == capped
+        assert bool(force > rules.SOFT_MAX_FORCE) == capped
         impedance.apply(position + offset, target_rotation)
         np.testing.assert_allclose(data.qfrc_applied[robot.arm_dof], expected, rtol=1e-9, atol=1e-9)
-    impedance.release()
+    impedance.end()
     assert not np.any(data.qfrc_applied[robot.arm_dof])

@@ -104,7 +104,7 @@ def test_colours_are_legible(sim):
 
 
 def test_grasp_validity(sim):
-    """§3.3: closing on air fails; a square grasp holds and welds the box."""
+    """The grasp test (docs/guide/world.md#grasping): closing on air fails; a square grasp holds and welds the box."""
     sim.reset(load_task("task0"), seed=0)
     snapshot = sim.get_state()
     pick = get_primitive("pick")
@@ -194,9 +194,9 @@ def test_blocked_compliant_sweep_stalls(sim):
 
 
 def test_blocked_sweep_under_the_reference_threshold_creeps(sim, monkeypatch):
-    """The counter-check of the test above: with §3.2's 0.001 m/s the same blocked sweep creeps on."""
-    from t2m_mujoco import executor
+    """The counter-check of the test above: with the reference's 0.001 m/s the same blocked sweep creeps on."""
+    from t2m_core.simulation import rules
 
-    monkeypatch.setattr(executor, "STALLED_SWEEP_SPEED", executor.STALLED_SPEED)
+    monkeypatch.setattr(rules, "STALLED_SWEEP_SPEED", rules.STALLED_SPEED)
     ticks, _failure, _moved = _sweep_into_rack(sim)
     assert ticks > 300
