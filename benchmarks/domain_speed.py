@@ -15,7 +15,7 @@ from t2m_core.atomic_files import write_json_atomic
 from t2m_core.domain.geometry import yaw_to_quat
 from t2m_core.domain.goals import goal_satisfied, parse_goal
 from t2m_core.domain.observation import argument_first_order, decode_observation, encode_observation, skill_state
-from t2m_core.domain.predicates import symbolic_state
+from t2m_core.domain.relations import symbolic_state
 from t2m_core.domain.state import GeometricState, ObjectPose
 
 FULL_SCENE = GeometricState(

@@ -38,8 +38,8 @@ from rich.table import Table
 
 from t2m_core.atomic_files import write_json_atomic
 from t2m_core.domain.goals import parse_goal
-from t2m_core.language.parsing import query_goal, query_next_skills
 from t2m_core.language.prompts import K
+from t2m_core.language.queries import query_goal, query_next_skills
 from t2m_core.language.scene_description import describe_task_scene
 from t2m_core.language.selection import create_language_model
 from t2m_core.language.session import LanguageSession, valid_groundings

@@ -78,7 +78,7 @@ def evaluation_scene(objects: tuple[str, ...], propositions: tuple[str, ...]):
     """A single-skill scene with the given objects and initial state."""
     from types import SimpleNamespace
 
-    from t2m_core.domain.predicates import Proposition
+    from t2m_core.domain.propositions import Proposition
 
     state = tuple(Proposition.parse(text) for text in propositions)
     return SimpleNamespace(id=f"eval[{','.join(objects)}]", objects=objects, initial_state=state)

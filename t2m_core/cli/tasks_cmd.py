@@ -81,7 +81,7 @@ def show_command(
 def scene_report(task: Task, seed: int, scene: SampledScene) -> dict[str, Any]:
     """A JSON-ready description of a sampled initial state."""
     from t2m_core.domain.objects import object_spec
-    from t2m_core.domain.predicates import symbolic_state
+    from t2m_core.domain.relations import symbolic_state
 
     state = scene.state
     return {

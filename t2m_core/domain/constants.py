@@ -11,6 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from t2m_core.domain.objects import ObjectKind
+
 # --------------------------------------------------------------------------------------------------
 # Table and workspace
 # --------------------------------------------------------------------------------------------------
@@ -191,3 +193,36 @@ def in_workspace(x: float | np.ndarray, y: float | np.ndarray) -> bool | np.ndar
 def beyond_workspace(x: float | np.ndarray, y: float | np.ndarray) -> bool | np.ndarray:
     """‖(x, y)‖ ≥ 0.70, metres."""
     return ZONES["beyondworkspace"].contains(x, y)
+
+
+def zone_of(x: float, y: float) -> str | None:
+    """``"inworkspace"``, ``"beyondworkspace"`` or ``None`` for a world xy position, metres."""
+    for name in ("inworkspace", "beyondworkspace"):
+        if ZONES[name].contains(x, y):
+            return name
+    return None
+
+
+# --------------------------------------------------------------------------------------------------
+# Thresholds of the sampling predicates ``free`` and ``nonblocking``
+# --------------------------------------------------------------------------------------------------
+
+FREE_MIN_DISTANCE: dict[frozenset[ObjectKind], float] = {
+    frozenset({ObjectKind.BOX}): 0.05,
+    frozenset({ObjectKind.BOX, ObjectKind.HOOK}): 0.05,
+    frozenset({ObjectKind.BOX, ObjectKind.RACK}): 0.10,
+    frozenset({ObjectKind.HOOK, ObjectKind.RACK}): 0.10,
+}
+"""d_min of ``free`` per unordered type pair, metres; unlisted pairs are ignored."""
+FREE_REDUCED_MIN_DISTANCE = 0.04
+"""d_min when the other object is a rack beyond the workspace, or an ``infront(·, rack)`` is involved."""
+
+NONBLOCKING_GROWTH: dict[tuple[ObjectKind, ObjectKind], dict[str | None, float]] = {
+    (ObjectKind.BOX, ObjectKind.RACK): {"inworkspace": 3.0, "beyondworkspace": 1.5, None: 1.0},
+    (ObjectKind.BOX, ObjectKind.BOX): {"inworkspace": 3.0, "beyondworkspace": 3.0, None: 3.0},
+    (ObjectKind.RACK, ObjectKind.HOOK): {"inworkspace": 0.25, "beyondworkspace": 0.25, None: 0.25},
+}
+"""``nonblocking(t, o)`` hull growth scale by (t's type, o's type) and o's zone: the hull of o
+grows by scale·max(size_x, size_y of t). The original applied 1.0 to every pair whose obstacle is in
+neither zone; the reference's table gives Box–Box 3.0 and Rack–Hook 0.25 unconditionally, which we
+follow."""

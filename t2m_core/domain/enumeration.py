@@ -8,15 +8,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from t2m_core.domain.objects import ObjectKind, object_spec
-from t2m_core.domain.predicates import Proposition, canonical_order
-from t2m_core.domain.skills import (
-    RECEPTACLE,
-    SkillCall,
-    SkillError,
-    SymbolicFacts,
-    signature_hint,
-    precondition_problems,
-)
+from t2m_core.domain.propositions import Proposition, canonical_order
+from t2m_core.domain.skills import RECEPTACLE, SkillCall, SkillError, signature_hint
+from t2m_core.domain.symbolic_effects import SymbolicFacts, precondition_problems
 
 
 def _kind(name: str) -> ObjectKind:

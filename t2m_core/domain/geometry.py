@@ -20,8 +20,10 @@ from t2m_core.domain.constants import (
     DISTURBANCE_TRANSLATION,
     EPS_AABB,
     EPS_ALIGN,
+    MAX_LIFT_HEIGHT,
+    ON_CONTACT_GAP,
 )
-from t2m_core.domain.objects import ObjectSpec, object_spec
+from t2m_core.domain.objects import ObjectKind, ObjectSpec, object_spec
 from t2m_core.domain.state import ObjectPose
 
 IDENTITY_QUAT = np.array([0.0, 0.0, 0.0, 1.0])
@@ -381,3 +383,36 @@ def closest_distance(a: ObjectGeometry, b: ObjectGeometry) -> float:
         gap_z = max(0.0, za[0] - zb[1], zb[0] - za[1])
         best = min(best, math.hypot(polygon_distance(pa, pb), gap_z))
     return best
+
+
+# --------------------------------------------------------------------------------------------------
+# The three relations of goals and prompts (geometry only)
+# --------------------------------------------------------------------------------------------------
+
+
+def is_inhand(obj: ObjectGeometry) -> bool:
+    """inhand(o): origin z > 0.40 − 0.5·size_z (the original's live test; the rack's origin is its top plate)."""
+    return float(obj.position[2]) > MAX_LIFT_HEIGHT - 0.5 * obj.spec.size[2]
+
+
+def is_on(a: ObjectGeometry, b: ObjectGeometry) -> bool:
+    """Geometry-only on(a, b): above, footprints intersect, a not in hand, |min_z(a) − max_z(b)| < 0.04."""
+    return (
+        a.name != b.name
+        and is_above(a, b)
+        and abs(a.min_z - b.max_z) < ON_CONTACT_GAP
+        and not is_inhand(a)
+        and is_intersecting(a, b)
+    )
+
+
+def is_under(a: ObjectGeometry, b: ObjectGeometry) -> bool:
+    """under(a, b): b is a receptacle (the original required the name "rack"), neither is the table, a is not above b, and the
+    footprints intersect. Never true together with on(a, b), which requires above."""
+    return (
+        a.name != b.name
+        and b.spec.kind is ObjectKind.RACK
+        and a.spec.kind is not ObjectKind.TABLE
+        and not is_above(a, b)
+        and is_intersecting(a, b)
+    )

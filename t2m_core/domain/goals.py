@@ -18,15 +18,9 @@ from t2m_core.domain.literals import (
     format_string_list,
     parse_string_lists,
 )
-from t2m_core.domain.predicates import (
-    GOAL_PREDICATES,
-    Proposition,
-    PropositionError,
-    Scene,
-    evaluate,
-    symbolic_state,
-    validate_proposition,
-)
+from t2m_core.domain.predicates import Scene, evaluate
+from t2m_core.domain.propositions import GOAL_PREDICATES, Proposition, PropositionError, validate_proposition
+from t2m_core.domain.relations import symbolic_state
 from t2m_core.domain.state import GeometricState
 from t2m_core.errors import T2MError
 

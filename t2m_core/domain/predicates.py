@@ -1,5 +1,6 @@
-"""Predicates of the TableEnv world: propositions, their value() checks, the canonical order and the
-symbolic state (docs/guide/world.md#predicates).
+"""The value() check of every predicate of the TableEnv world, on a scene
+(docs/guide/world.md#predicates). Propositions themselves are :mod:`t2m_core.domain.propositions`,
+the relations the language layer sees :mod:`t2m_core.domain.relations`.
 
 Two flavours of check:
 
@@ -14,200 +15,32 @@ read others (``free`` looks for ``infront``; ``on`` for ``tippable``).
 
 from __future__ import annotations
 
-import itertools
-from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Iterable
 
 import numpy as np
 
 from t2m_core.domain import geometry
 from t2m_core.domain.constants import (
-    MAX_LIFT_HEIGHT,
-    ON_CONTACT_GAP,
+    FREE_MIN_DISTANCE,
+    FREE_REDUCED_MIN_DISTANCE,
+    NONBLOCKING_GROWTH,
     ZONES,
+    zone_of,
 )
-from t2m_core.domain.geometry import ObjectGeometry
-from t2m_core.domain.literals import format_call, parse_call
+from t2m_core.domain.geometry import ObjectGeometry, is_inhand, is_on, is_under
 from t2m_core.domain.objects import ObjectKind
-from t2m_core.domain.state import GeometricState
-from t2m_core.errors import T2MError
-
-PREDICATE_ORDER: tuple[str, ...] = (
-    "handlegrasp",
-    "upperhandlegrasp",
-    "free",
-    "aligned",
-    "tippable",
-    "poslimit",
-    "inworkspace",
-    "incollisionzone",
-    "inoperationalzone",
-    "inobstructionzone",
-    "beyondworkspace",
-    "inoodzone",
-    "under",
-    "infront",
-    "nonblocking",
-    "on",
-    "inhand",
+from t2m_core.domain.propositions import (
+    GOAL_PREDICATES,
+    PREDICATE_ARITY,
+    PREDICATE_ORDER,
+    Proposition,
+    PropositionError,
+    canonical_order,  # noqa: F401  (t2m_core/data, t2m_core/simulation, t2m_mujoco import it from here)
 )
-"""Canonical predicate order (docs/guide/world.md#canonical-order): initial states are sampled in this order (``on`` before ``inhand``)."""
-
-PREDICATE_ARITY: dict[str, int] = {
-    name: (2 if name in ("under", "infront", "nonblocking", "on") else 1) for name in PREDICATE_ORDER
-}
-"""Number of arguments of every predicate."""
-
-GOAL_PREDICATES: tuple[str, ...] = ("on", "under", "inhand")
-"""The only predicates of goals, the language interface and task success."""
-
-RELATION_ORDER: tuple[str, ...] = ("under", "on", "inhand")
-"""Order of predicates in a symbolic state (the original's output order)."""
-
-ZONE_PREDICATES: tuple[str, ...] = tuple(ZONES)
-"""The zone predicates, in canonical order."""
-
-
-class PropositionError(T2MError, ValueError):
-    """A proposition names an unknown predicate or object, or has the wrong number of arguments."""
-
-
-@dataclass(frozen=True, order=True)
-class Proposition:
-    """A grounded predicate, e.g. ``on(red_box, rack)``.
-
-    Attributes:
-        predicate: the predicate's name (``"on"``).
-        args: object names, in order.
-    """
-
-    predicate: str
-    args: tuple[str, ...]
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "args", tuple(self.args))
-
-    def __str__(self) -> str:
-        return format_call(self.predicate, self.args)
-
-    @classmethod
-    def parse(cls, text: str) -> Proposition:
-        """Parse ``"on(red_box,rack)"`` (any spacing). Syntax only: see :func:`validate_proposition`.
-
-        Raises:
-            LiteralSyntaxError: naming the offending position.
-        """
-        name, args = parse_call(text, "proposition")
-        return cls(name, args)
-
-    @classmethod
-    def coerce(cls, value: Proposition | str) -> Proposition:
-        """``value`` itself, or parsed from a string."""
-        return value if isinstance(value, Proposition) else cls.parse(value)
-
-    @property
-    def canonical_rank(self) -> int:
-        """Index of the predicate in :data:`PREDICATE_ORDER` (unknown predicates sort last)."""
-        try:
-            return PREDICATE_ORDER.index(self.predicate)
-        except ValueError:
-            return len(PREDICATE_ORDER)
-
-
-def canonical_order(propositions: Iterable[Proposition | str]) -> tuple[Proposition, ...]:
-    """Sort by :data:`PREDICATE_ORDER`, keeping the given order within one predicate."""
-    props = [Proposition.coerce(p) for p in propositions]
-    return tuple(sorted(props, key=lambda p: p.canonical_rank))  # sorted() is stable
-
-
-def validate_proposition(
-    proposition: Proposition,
-    object_names: Sequence[str],
-    predicates: Sequence[str] = PREDICATE_ORDER,
-) -> None:
-    """Check the predicate is one of ``predicates``, the arity is right and every argument is in
-    ``object_names``.
-
-    Raises:
-        PropositionError: naming the problem and listing what exists.
-    """
-    if proposition.predicate not in predicates:
-        raise PropositionError(
-            f"unknown predicate {proposition.predicate!r} in {proposition}",
-            f"use one of: {', '.join(predicates)}",
-        )
-    arity = PREDICATE_ARITY[proposition.predicate]
-    if len(proposition.args) != arity:
-        raise PropositionError(
-            f"{proposition} has {len(proposition.args)} argument(s); {proposition.predicate} takes {arity}",
-            f"write {proposition.predicate}({', '.join('xy'[:arity])})",
-        )
-    for arg in proposition.args:
-        if arg not in object_names:
-            raise PropositionError(
-                f"unknown object {arg!r} in {proposition}", f"objects in this scene: {', '.join(object_names)}"
-            )
-
-
-# --------------------------------------------------------------------------------------------------
-# Geometric classifiers on object geometries
-# --------------------------------------------------------------------------------------------------
-
-
-def is_inhand(obj: ObjectGeometry) -> bool:
-    """inhand(o): origin z > 0.40 − 0.5·size_z (the original's live test; the rack's origin is its top plate)."""
-    return float(obj.position[2]) > MAX_LIFT_HEIGHT - 0.5 * obj.spec.size[2]
-
-
-def is_on(a: ObjectGeometry, b: ObjectGeometry) -> bool:
-    """Geometry-only on(a, b): above, footprints intersect, a not in hand, |min_z(a) − max_z(b)| < 0.04."""
-    return (
-        a.name != b.name
-        and geometry.is_above(a, b)
-        and abs(a.min_z - b.max_z) < ON_CONTACT_GAP
-        and not is_inhand(a)
-        and geometry.is_intersecting(a, b)
-    )
-
-
-def is_under(a: ObjectGeometry, b: ObjectGeometry) -> bool:
-    """under(a, b): b is a receptacle (the original required the name "rack"), neither is the table, a is not above b, and the
-    footprints intersect. Never true together with on(a, b), which requires above."""
-    return (
-        a.name != b.name
-        and b.spec.kind is ObjectKind.RACK
-        and a.spec.kind is not ObjectKind.TABLE
-        and not geometry.is_above(a, b)
-        and geometry.is_intersecting(a, b)
-    )
-
-
-# --------------------------------------------------------------------------------------------------
-# Evaluating propositions in a scene
-# --------------------------------------------------------------------------------------------------
+from t2m_core.domain.state import GeometricState
 
 DistanceFn = Callable[[str, str], float]
 """Closest distance in metres between two named objects (e.g. a simulator's closest-point query)."""
-
-FREE_MIN_DISTANCE: dict[frozenset[ObjectKind], float] = {
-    frozenset({ObjectKind.BOX}): 0.05,
-    frozenset({ObjectKind.BOX, ObjectKind.HOOK}): 0.05,
-    frozenset({ObjectKind.BOX, ObjectKind.RACK}): 0.10,
-    frozenset({ObjectKind.HOOK, ObjectKind.RACK}): 0.10,
-}
-"""d_min of ``free`` per unordered type pair, metres; unlisted pairs are ignored."""
-FREE_REDUCED_MIN_DISTANCE = 0.04
-"""d_min when the other object is a rack beyond the workspace, or an ``infront(·, rack)`` is involved."""
-
-NONBLOCKING_GROWTH: dict[tuple[ObjectKind, ObjectKind], dict[str | None, float]] = {
-    (ObjectKind.BOX, ObjectKind.RACK): {"inworkspace": 3.0, "beyondworkspace": 1.5, None: 1.0},
-    (ObjectKind.BOX, ObjectKind.BOX): {"inworkspace": 3.0, "beyondworkspace": 3.0, None: 3.0},
-    (ObjectKind.RACK, ObjectKind.HOOK): {"inworkspace": 0.25, "beyondworkspace": 0.25, None: 0.25},
-}
-"""``nonblocking(t, o)`` hull growth scale by (t's type, o's type) and o's zone: the hull of o
-grows by scale·max(size_x, size_y of t). The original applied 1.0 to every pair whose obstacle is in
-neither zone; the reference's table gives Box–Box 3.0 and Rack–Hook 0.25 unconditionally, which we
-follow."""
 
 
 class Scene:
@@ -318,14 +151,6 @@ def _infront(scene: Scene, obj: str, rack: str, *, full: bool) -> bool:
     return bool(x < them.aabb[0, 0] and them.aabb[0, 1] < y < them.aabb[1, 1] and not is_under(me, them))
 
 
-def zone_of(x: float, y: float) -> str | None:
-    """``"inworkspace"``, ``"beyondworkspace"`` or ``None`` for a world xy position, metres."""
-    for name in ("inworkspace", "beyondworkspace"):
-        if ZONES[name].contains(x, y):
-            return name
-    return None
-
-
 def _nonblocking(scene: Scene, target: str, obstacle: str, *, full: bool) -> bool:
     t, o = scene.geometry(target), scene.geometry(obstacle)
     hull = o.bounding_box_footprint()
@@ -400,29 +225,3 @@ def holds_all(
     props = [Proposition.coerce(p) for p in propositions]
     view = scene if isinstance(scene, Scene) else Scene(scene, props if context is None else context)
     return all(evaluate(p, view, full=full) for p in props)
-
-
-def symbolic_state(state: GeometricState, object_names: Sequence[str] | None = None) -> tuple[Proposition, ...]:
-    """The true geometry-only relations of a state (docs/guide/world.md#relations-the-language-model-sees).
-
-    Every ``under(x, y)`` and ``on(x, y)`` over ordered pairs of distinct objects, the table included,
-    and ``inhand(x)`` for every object. Grouped by predicate (under, on, inhand), then by the object
-    order. Workspace membership is never included.
-
-    Args:
-        state: the geometric state (row 0 / the end effector plays no role).
-        object_names: objects in task order; defaults to ``state.object_names``. Absent ones are skipped.
-    """
-    names = [n for n in (object_names if object_names is not None else state.object_names) if n in state.objects]
-    objects = [geometry.object_geometry(n, state.objects[n]) for n in names]
-    pairs = list(itertools.permutations(objects, 2))
-    relations = [Proposition("under", (a.name, b.name)) for a, b in pairs if is_under(a, b)]
-    relations += [Proposition("on", (a.name, b.name)) for a, b in pairs if is_on(a, b)]
-    relations += [Proposition("inhand", (a.name,)) for a in objects if is_inhand(a)]
-    return tuple(relations)
-
-
-def relation_strings(state: GeometricState, object_names: Sequence[str] | None = None) -> list[str]:
-    """:func:`symbolic_state` as strings, ``['on(rack, table)', ...]``, as the prompts show them."""
-    return [str(p) for p in symbolic_state(state, object_names)]
-

@@ -59,15 +59,9 @@ from t2m_core.domain.geometry import (
     yaw_to_quat,
 )
 from t2m_core.domain.objects import ObjectKind, object_spec
-from t2m_core.domain.predicates import (
-    ZONE_PREDICATES,
-    Proposition,
-    Scene,
-    canonical_order,
-    evaluate,
-    validate_proposition,
-)
+from t2m_core.domain.predicates import Scene, evaluate
 from t2m_core.domain.primitives.pick import Pick
+from t2m_core.domain.propositions import ZONE_PREDICATES, Proposition, canonical_order, validate_proposition
 from t2m_core.domain.state import GeometricState, ObjectPose
 from t2m_core.errors import T2MError
 

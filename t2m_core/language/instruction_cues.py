@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 from t2m_core.domain.goals import Goal
 from t2m_core.domain.objects import OBJECTS, ObjectKind
-from t2m_core.domain.predicates import Proposition
+from t2m_core.domain.propositions import Proposition
 
 RELATION_WORDS = {
     "on": "on", "onto": "on", "to": "on", "atop": "on",

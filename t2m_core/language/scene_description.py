@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from t2m_core.domain.literals import format_string_list
-from t2m_core.domain.predicates import relation_strings
+from t2m_core.domain.relations import relation_strings
 from t2m_core.domain.state import GeometricState
 
 

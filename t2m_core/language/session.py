@@ -3,7 +3,7 @@ skills worth trying (with their usefulness scores), and whole skill sequences. U
 and ``benchmarks/llm_quality.py``; planners call the same prompt builders and query functions.
 
 Relationships after planned skills come from the symbolic effects of the skills
-(:func:`~t2m_core.domain.skills.apply_effects`) when no feasibility planner has predicted them.
+(:func:`~t2m_core.domain.symbolic_effects.apply_effects`) when no feasibility planner has predicted them.
 """
 
 from __future__ import annotations
@@ -12,13 +12,15 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+from t2m_core.domain.enumeration import candidate_groundings
 from t2m_core.domain.goals import Goal
 from t2m_core.domain.literals import LiteralSyntaxError, parse_string_lists
-from t2m_core.domain.predicates import GOAL_PREDICATES, Proposition, canonical_order
-from t2m_core.domain.enumeration import candidate_groundings
-from t2m_core.domain.skills import SKILLS, SkillCall, SkillError, apply_effects, precondition_problems
-from t2m_core.language.parsing import Attempt, GoalQuery, inst, query_goal, query_next_skills, query_skill_sequences
-from t2m_core.language.prompts import K, HistoryStep, PromptBuilder, scoring_request
+from t2m_core.domain.propositions import GOAL_PREDICATES, Proposition, canonical_order
+from t2m_core.domain.skills import SKILLS, SkillCall, SkillError
+from t2m_core.domain.symbolic_effects import apply_effects, precondition_problems
+from t2m_core.language.parsing import inst
+from t2m_core.language.prompts import HistoryStep, K, PromptBuilder, scoring_request
+from t2m_core.language.queries import Attempt, GoalQuery, query_goal, query_next_skills, query_skill_sequences
 from t2m_core.language.scene_description import SceneDescription
 from t2m_core.language.scoring import BETA, dampened_softmax
 from t2m_core.protocols import LanguageModel

@@ -19,7 +19,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from t2m_core.domain.goals import Goal, GoalError, validate_goal
 from t2m_core.domain.literals import LiteralSyntaxError
 from t2m_core.domain.objects import OBJECTS
-from t2m_core.domain.predicates import (
+from t2m_core.domain.propositions import (
     PREDICATE_ORDER,
     Proposition,
     PropositionError,

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from t2m_core.domain.goals import Goal
 from t2m_core.domain.objects import ObjectKind, object_spec
-from t2m_core.domain.predicates import Proposition
+from t2m_core.domain.propositions import Proposition
 from t2m_core.domain.skills import SkillCall
 
 TASK_PROPERTIES: dict[str, str] = {

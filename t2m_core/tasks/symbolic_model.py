@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 from t2m_core.domain.goals import Goal
 from t2m_core.domain.objects import ObjectKind, object_spec
-from t2m_core.domain.predicates import Proposition
+from t2m_core.domain.propositions import Proposition
 from t2m_core.domain.skills import MOVABLE, SKILLS, UNMOVABLE, SkillCall, check_argument_types
 from t2m_core.tasks.model import Task
 

@@ -6,6 +6,7 @@ import json
 from types import SimpleNamespace
 
 import pytest
+from t2m_llm_replay import hooks as replay_hooks
 from typer.testing import CliRunner
 
 from t2m_core.cli.main import app
@@ -13,7 +14,6 @@ from t2m_core.hookspecs import hookimpl
 from t2m_core.language.transcript import read_transcript
 from t2m_core.plugin_specs import LanguageModelSpec
 from t2m_core.protocols import LanguageModelCapabilities
-from t2m_llm_replay import hooks as replay_hooks
 
 runner = CliRunner()
 

@@ -19,7 +19,8 @@ from t2m_core.domain.goals import (
     parse_goal,
     validate_goal,
 )
-from t2m_core.domain.predicates import Proposition, symbolic_state
+from t2m_core.domain.propositions import Proposition
+from t2m_core.domain.relations import symbolic_state
 from t2m_core.domain.state import ObjectPose
 from tests.domain.scenes import RACK_IN_WORKSPACE, SCENE_ORDER, on_table, random_scenes, scene
 

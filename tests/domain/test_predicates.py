@@ -1,84 +1,20 @@
-"""Predicates (docs/guide/world.md#predicates): worked examples of the geometric tests, the value()
-checks, the canonical order and the symbolic state."""
+"""Predicates (docs/guide/world.md#predicates): worked examples of the geometric tests and the value()
+checks on scenes."""
 
 from __future__ import annotations
 
-import itertools
 import math
 
-import numpy as np
 import pytest
-from hypothesis import given, settings
 
 from t2m_core.domain.geometry import axis_angle_to_quat, quat_multiply, yaw_to_quat
-from t2m_core.domain.literals import LiteralSyntaxError
-from t2m_core.domain.predicates import (
-    GOAL_PREDICATES,
-    PREDICATE_ORDER,
-    Proposition,
+from t2m_core.domain.predicates import Scene, evaluate, holds_all
+from t2m_core.domain.propositions import (
     PropositionError,
-    Scene,
-    canonical_order,
-    evaluate,
-    holds_all,
-    relation_strings,
-    symbolic_state,
-    validate_proposition,
 )
+from t2m_core.domain.relations import relation_strings
 from t2m_core.domain.state import ObjectPose
-from tests.domain.scenes import RACK_BEYOND, RACK_IN_WORKSPACE, on_table, random_scenes, scene
-
-# --------------------------------------------------------------------------------------------------
-# Propositions and order
-# --------------------------------------------------------------------------------------------------
-
-
-def test_proposition_spelling_and_parsing() -> None:
-    prop = Proposition.parse("  on( red_box ,rack ) ")
-    assert prop == Proposition("on", ("red_box", "rack"))
-    assert str(prop) == "on(red_box, rack)"
-    assert Proposition.parse(str(prop)) == prop
-    assert str(Proposition("inhand", ["hook"])) == "inhand(hook)"
-    assert hash(prop) == hash(Proposition("on", ("red_box", "rack")))
-
-
-@pytest.mark.parametrize(
-    ("text", "position"),
-    [("on(red_box rack)", 11), ("on red_box, rack)", 3), ("on(red_box, rack", 16), ("on(red-box, rack)", 6),
-     ("on(red_box, rack) x", 18), ("(a)", 0), ("on(a,)", 5)],
-)
-def test_malformed_propositions_point_at_the_problem(text: str, position: int) -> None:
-    with pytest.raises(LiteralSyntaxError) as caught:
-        Proposition.parse(text)
-    assert caught.value.position == position
-    assert f"position {position}" in str(caught.value)
-    assert text in str(caught.value)
-
-
-def test_canonical_order_is_stable_within_a_predicate() -> None:
-    props = ["on(rack, table)", "inhand(hook)", "free(cyan_box)", "on(red_box, table)", "free(blue_box)",
-             "beyondworkspace(rack)", "inworkspace(hook)", "nonblocking(a, b)", "infront(c, rack)", "aligned(rack)"]
-    ordered = [str(p) for p in canonical_order(props)]
-    assert ordered == ["free(cyan_box)", "free(blue_box)", "aligned(rack)", "inworkspace(hook)",
-                       "beyondworkspace(rack)", "infront(c, rack)", "nonblocking(a, b)", "on(rack, table)",
-                       "on(red_box, table)", "inhand(hook)"]
-    assert PREDICATE_ORDER.index("on") < PREDICATE_ORDER.index("inhand")  # on is sampled before inhand
-    assert len(PREDICATE_ORDER) == 17
-
-
-def test_validate_proposition_names_the_problem() -> None:
-    objects = ["table", "rack", "red_box"]
-    validate_proposition(Proposition.parse("on(red_box, rack)"), objects)
-    with pytest.raises(PropositionError, match="unknown object 'shelf'") as caught:
-        validate_proposition(Proposition.parse("on(red_box, shelf)"), objects)
-    assert "table, rack, red_box" in str(caught.value)
-    with pytest.raises(PropositionError, match="unknown predicate 'atop'"):
-        validate_proposition(Proposition.parse("atop(red_box, rack)"), objects)
-    with pytest.raises(PropositionError, match="takes 1"):
-        validate_proposition(Proposition.parse("inhand(red_box, rack)"), objects)
-    with pytest.raises(PropositionError, match="unknown predicate 'free'"):
-        validate_proposition(Proposition.parse("free(red_box)"), objects, GOAL_PREDICATES)
-
+from tests.domain.scenes import RACK_BEYOND, RACK_IN_WORKSPACE, on_table, scene
 
 # --------------------------------------------------------------------------------------------------
 # Worked examples of the geometric tests
@@ -248,56 +184,3 @@ def test_unknown_predicate_or_arity_is_an_error() -> None:
         evaluate("near(red_box, table)", scene())
     with pytest.raises(PropositionError, match="takes 2"):
         evaluate("on(red_box)", scene())
-
-
-# --------------------------------------------------------------------------------------------------
-# Symbolic state
-# --------------------------------------------------------------------------------------------------
-
-
-def test_symbolic_state_order_follows_the_object_order() -> None:
-    state = scene(
-        rack=RACK_IN_WORKSPACE,
-        hook=ObjectPose([0.5, 0.2, 0.40]),
-        red_box=ObjectPose([0.44, -0.33, 0.16 + 0.059]),
-        cyan_box=on_table("cyan_box", 0.45, -0.35),
-        blue_box=on_table("blue_box", 0.6, 0.25),
-    )
-    assert relation_strings(state) == [
-        "under(cyan_box, rack)",
-        "on(rack, table)",
-        "on(red_box, rack)",
-        "on(cyan_box, table)",
-        "on(blue_box, table)",
-        "inhand(hook)",
-    ]
-    reordered = ["table", "blue_box", "cyan_box", "red_box", "hook", "rack"]
-    assert relation_strings(state, reordered)[1:3] == ["on(blue_box, table)", "on(cyan_box, table)"]
-    assert "inworkspace" not in " ".join(relation_strings(state))
-
-
-@settings(max_examples=150, deadline=None)
-@given(random_scenes())
-def test_on_and_under_never_hold_together(state) -> None:
-    relations = set(symbolic_state(state))
-    for a, b in itertools.permutations(state.object_names, 2):
-        assert not (Proposition("on", (a, b)) in relations and Proposition("under", (a, b)) in relations)
-
-
-@settings(max_examples=100, deadline=None)
-@given(random_scenes())
-def test_symbolic_state_is_exactly_the_true_groundings(state) -> None:
-    names = state.object_names
-    view = Scene(state)
-    candidates = [Proposition(name, pair) for name in ("under", "on") for pair in itertools.permutations(names, 2)]
-    candidates += [Proposition("inhand", (n,)) for n in names]
-    expected = [p for p in candidates if evaluate(p, view, full=False)]
-    assert list(symbolic_state(state)) == expected
-    assert all(p.args[0] != p.args[-1] or p.predicate == "inhand" for p in expected)
-    assert not any(p.args[0] == "table" and p.predicate == "under" for p in expected)
-
-
-def test_symbolic_state_skips_absent_names() -> None:
-    state = scene(red_box=on_table("red_box", 0.5, 0.0))
-    assert relation_strings(state, ["table", "rack", "red_box"]) == ["on(red_box, table)"]
-    assert np.asarray(state.ee_position).shape == (3,)

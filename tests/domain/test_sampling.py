@@ -17,7 +17,7 @@ from t2m_core.domain.geometry import (
     quat_yaw,
     rotate,
 )
-from t2m_core.domain.predicates import Proposition, PropositionError
+from t2m_core.domain.propositions import Proposition, PropositionError
 from t2m_core.domain.sampling import (
     DROP_HEIGHT,
     SampledScene,

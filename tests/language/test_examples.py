@@ -6,8 +6,9 @@ from __future__ import annotations
 import pytest
 
 from t2m_core.domain.goals import Goal, validate_goal
-from t2m_core.domain.predicates import Proposition
-from t2m_core.domain.skills import apply_effects, parse_skill_call, precondition_problems
+from t2m_core.domain.propositions import Proposition
+from t2m_core.domain.skills import parse_skill_call
+from t2m_core.domain.symbolic_effects import apply_effects, precondition_problems
 from t2m_core.language.prompts import load_examples
 from t2m_core.tasks import list_tasks
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from t2m_core.domain.goals import Goal
-from t2m_core.domain.predicates import Proposition
+from t2m_core.domain.propositions import Proposition
 from t2m_core.domain.skills import SkillCall
 from t2m_core.tasks import list_tasks, load_task
 from t2m_core.tasks.symbolic_model import applicable, apply, groundings, initial_facts, replay, shortest_plan

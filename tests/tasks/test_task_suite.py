@@ -8,8 +8,9 @@ import pytest
 import yaml
 
 from t2m_core.domain.goals import validate_goal
-from t2m_core.domain.predicates import PREDICATE_ORDER, canonical_order
-from t2m_core.domain.skills import apply_effects, precondition_problems, validate_skill_call
+from t2m_core.domain.propositions import PREDICATE_ORDER, canonical_order
+from t2m_core.domain.skills import validate_skill_call
+from t2m_core.domain.symbolic_effects import apply_effects, precondition_problems
 from t2m_core.tasks import TaskFileError, TaskNotFoundError, list_tasks, load_task, load_task_file, parse_task, task_ids
 
 DATA = Path(__file__).resolve().parents[2] / "t2m_core" / "tasks" / "data"

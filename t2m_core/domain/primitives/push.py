@@ -8,11 +8,11 @@ from functools import partial
 import numpy as np
 
 from t2m_core.domain.constants import D_PUSH
-from t2m_core.domain.geometry import object_geometry
+from t2m_core.domain.geometry import is_under, object_geometry
 from t2m_core.domain.objects import ObjectKind
-from t2m_core.domain.predicates import is_under
 from t2m_core.domain.primitives.base import MotionKind, MotionStep, StepContext, lift_position, other_objects
 from t2m_core.domain.primitives.hook_sweep import HookSweep, hook_clearance, planar_distance
+from t2m_core.domain.primitives.pull import target_upright
 from t2m_core.domain.primitives.sweep_screen import (
     END_MARGIN,
     SweepPrediction,
@@ -22,9 +22,7 @@ from t2m_core.domain.primitives.sweep_screen import (
     rack_parts,
     sweep_failure,
 )
-from t2m_core.domain.primitives.pull import target_upright
 from t2m_core.domain.state import GeometricState
-
 
 UNDER_DEPTH = (0.02, 0.12)
 """m: the screened sampler wants the box's predicted footprint this far inside the rack's along the
