@@ -3,7 +3,7 @@
 | Variable | Meaning | Default |
 |---|---|---|
 | ``T2M_CACHE_DIR`` | assembled model files and other caches | ``$XDG_CACHE_HOME/t2m`` or ``~/.cache/t2m`` |
-| ``T2M_RUNS_DIR`` | where ``t2m run`` writes run directories | ``./runs`` |
+| ``T2M_RUNS_DIR`` | where run directories are written | ``./runs`` |
 | ``T2M_DISABLE_PLUGIN_AUTOLOAD`` | ``1``: load only builtin plugins, not third-party entry points | unset |
 | ``T2M_PLUGINS`` | comma-separated extra plugin modules to load by import name | unset |
 

