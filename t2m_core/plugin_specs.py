@@ -8,7 +8,7 @@ path, so that registering a plugin never imports its heavy dependencies. The reg
 from __future__ import annotations
 
 import importlib
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -42,7 +42,6 @@ class ComponentSpec:
     options: type[BaseModel] = NoOptions
     aliases: tuple[str, ...] = ()
     summary: str = ""
-    extra: dict[str, Any] = field(default_factory=dict)
 
     def load_factory(self) -> Callable[..., Any]:
         """Import and return the factory callable."""
@@ -82,10 +81,49 @@ class FeasibilityPlannerSpec(ComponentSpec):
 
 
 @dataclass(frozen=True)
+class NamePrefix:
+    """A family of names that select a language model with one option taken from the name.
+
+    ``NamePrefix("ollama/", option="model")`` makes ``--llm ollama/llama3`` select the model with
+    ``model="ollama/llama3"``; with ``strip=True`` (``NamePrefix("litellm/", "model", strip=True)``)
+    ``--llm litellm/claude-3-5-haiku`` gives ``model="claude-3-5-haiku"``.
+    """
+
+    prefix: str
+    option: str
+    strip: bool = False
+
+
+@dataclass(frozen=True)
 class LanguageModelSpec(ComponentSpec):
-    """A language model backend (:class:`t2m_core.protocols.LanguageModel`)."""
+    """A language model backend (:class:`t2m_core.protocols.LanguageModel`).
+
+    Attributes:
+        alias_options: options an alias implies, ``{"gpt-4o": {"model": "gpt-4o"}}``; explicit
+            options win. Every key must be one of :attr:`aliases`.
+        name_prefixes: name families that select this backend (:class:`NamePrefix`).
+    """
 
     kind: ClassVar[str] = "language_model"
+
+    alias_options: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    name_prefixes: tuple[NamePrefix, ...] = ()
+
+    def __post_init__(self) -> None:
+        unknown_aliases = sorted(set(self.alias_options) - set(self.aliases))
+        if unknown_aliases:
+            raise ValueError(
+                f"language model {self.name!r}: alias_options names {unknown_aliases}, which are not among its "
+                f"aliases {list(self.aliases)}; add them to aliases or drop them"
+            )
+        options = set(self.options.model_fields)
+        implied = {option for values in self.alias_options.values() for option in values}
+        implied |= {prefix.option for prefix in self.name_prefixes}
+        if implied - options:
+            raise ValueError(
+                f"language model {self.name!r}: alias_options / name_prefixes set {sorted(implied - options)}, "
+                f"which {self.options.__name__} does not have (its options: {sorted(options)})"
+            )
 
 
 @dataclass(frozen=True)

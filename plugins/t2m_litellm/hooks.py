@@ -19,7 +19,7 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 from t2m_core.hookspecs import hookimpl
-from t2m_core.plugin_specs import LanguageModelSpec
+from t2m_core.plugin_specs import LanguageModelSpec, NamePrefix
 
 ALIAS_MODELS: dict[str, str] = {
     "gpt-4": "gpt-4",
@@ -83,7 +83,7 @@ class LiteLLMOptions(BaseModel):
 
 @hookimpl
 def t2m_register_language_models() -> list[LanguageModelSpec]:
-    """The litellm backend; each alias carries its model name in ``extra["alias_options"]``."""
+    """The litellm backend; each alias implies its model name (``alias_options``)."""
     return [
         LanguageModelSpec(
             name="litellm",
@@ -91,11 +91,11 @@ def t2m_register_language_models() -> list[LanguageModelSpec]:
             factory="t2m_litellm.backend:LiteLLMLanguageModel",
             options=LiteLLMOptions,
             summary="Any litellm model (gpt-4o, claude-..., ollama/..., openai/NAME + api_base)",
-            extra={
-                "alias_options": {alias: {"model": model} for alias, model in ALIAS_MODELS.items()},
-                # "<prefix>NAME" selects this backend: "strip" -> model NAME, "keep" -> model "<prefix>NAME".
-                "name_prefixes": {"litellm/": "strip", **{f"{prefix}/": "keep" for prefix in PROVIDER_PREFIXES}},
-                "name_prefix_option": "model",
-            },
+            alias_options={alias: {"model": model} for alias, model in ALIAS_MODELS.items()},
+            # "litellm/NAME" -> model NAME; "<provider>/NAME" -> model "<provider>/NAME" (litellm routes it)
+            name_prefixes=(
+                NamePrefix("litellm/", "model", strip=True),
+                *(NamePrefix(f"{prefix}/", "model") for prefix in PROVIDER_PREFIXES),
+            ),
         )
     ]

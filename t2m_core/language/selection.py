@@ -1,12 +1,13 @@
 """Resolving ``--llm NAME`` to a language-model component and its options.
 
-On top of the registry's names and aliases, a language-model spec may declare in ``extra``:
+On top of the registry's names and aliases, a :class:`~t2m_core.plugin_specs.LanguageModelSpec`
+may declare:
 
 - ``alias_options``: ``{alias: {option: value}}`` applied when the alias is used
   (``gpt-4o`` -> the litellm spec with ``model="gpt-4o"``);
-- ``name_prefixes`` + ``name_prefix_option``: ``{"litellm/": "strip", "ollama/": "keep"}``, so
+- ``name_prefixes``: :class:`~t2m_core.plugin_specs.NamePrefix` es, so that
   ``litellm/claude-3-5-haiku-20241022`` and ``ollama/llama3`` select that spec with the remainder
-  (``strip``) or the whole name (``keep``) as the option ``name_prefix_option``.
+  (``strip=True``) or the whole name as the prefix's option.
 
 Explicit options always win over what the name implies.
 """
@@ -36,13 +37,12 @@ def resolve_language_model(name: str, options: Mapping[str, Any] | None = None, 
         spec = registry.get(KIND, name)
     except PluginError as unknown:
         for candidate in registry.specs(KIND):
-            option = candidate.extra.get("name_prefix_option")
-            for prefix, mode in candidate.extra.get("name_prefixes", {}).items():
-                if name.startswith(prefix) and len(name) > len(prefix) and option:
-                    value = name[len(prefix):] if mode == "strip" else name
-                    return candidate.name, {option: value, **explicit}
+            for family in candidate.name_prefixes:
+                if name.startswith(family.prefix) and len(name) > len(family.prefix):
+                    value = name[len(family.prefix) :] if family.strip else name
+                    return candidate.name, {family.option: value, **explicit}
         raise unknown
-    implied = dict(spec.extra.get("alias_options", {}).get(name, {})) if name != spec.name else {}
+    implied = dict(spec.alias_options.get(name, {})) if name != spec.name else {}
     return spec.name, {**implied, **explicit}
 
 

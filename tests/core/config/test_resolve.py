@@ -185,7 +185,7 @@ def test_null_blocks_are_not_looked_up(toy_registry: Registry) -> None:
 def test_language_model_alias_implies_its_options() -> None:
     from pydantic import BaseModel, ConfigDict
 
-    from t2m_core.plugin_specs import LanguageModelSpec
+    from t2m_core.plugin_specs import LanguageModelSpec, NamePrefix
 
     class HostedOptions(BaseModel):
         model_config = ConfigDict(extra="forbid")
@@ -198,11 +198,8 @@ def test_language_model_alias_implies_its_options() -> None:
         factory="builtins:object",
         options=HostedOptions,
         summary="x",
-        extra={
-            "alias_options": {"small": {"model": "small-2"}},
-            "name_prefixes": {"acme/": "keep"},
-            "name_prefix_option": "model",
-        },
+        alias_options={"small": {"model": "small-2"}},
+        name_prefixes=(NamePrefix("acme/", "model"),),
     )
     registry = Registry()
     registry.register_plugin(plugin(t2m_register_language_models=[hosted]), name="hosted")
@@ -216,6 +213,22 @@ def test_language_model_alias_implies_its_options() -> None:
     assert language_model("small") == {"name": "small", "options": {"model": "small-2", "timeout_s": 60.0}}
     assert language_model("small", "language_model.options.model=tiny")["options"]["model"] == "tiny"  # explicit wins
     assert language_model("acme/x9")["options"]["model"] == "acme/x9"
+
+
+def test_language_model_spec_rejects_implied_options_that_do_not_exist() -> None:
+    from pydantic import BaseModel, ConfigDict
+
+    from t2m_core.plugin_specs import LanguageModelSpec, NamePrefix
+
+    class HostedOptions(BaseModel):
+        model_config = ConfigDict(extra="forbid")
+        model: str = "big-1"
+
+    common = {"name": "hosted", "factory": "builtins:object", "options": HostedOptions}
+    with pytest.raises(ValueError, match=r"alias_options names \['tiny'\]"):
+        LanguageModelSpec(**common, alias_options={"tiny": {"model": "t"}})
+    with pytest.raises(ValueError, match=r"\['engine'\], which HostedOptions does not have"):
+        LanguageModelSpec(**common, name_prefixes=(NamePrefix("acme/", "engine"),))
 
 
 def test_unknown_task_is_reported_with_a_suggestion(toy_registry: Registry) -> None:

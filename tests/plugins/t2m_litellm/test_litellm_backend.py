@@ -31,7 +31,7 @@ def free_port() -> int:
 def test_spec_aliases_and_options():
     (spec,) = t2m_register_language_models()
     assert spec.name == "litellm" and {"gpt-4", "gpt-4o", "gpt-3.5-turbo"} <= set(spec.aliases)
-    assert spec.extra["alias_options"]["gpt-4o"] == {"model": "gpt-4o"}
+    assert spec.alias_options["gpt-4o"] == {"model": "gpt-4o"}
     assert ALIAS_MODELS["claude-3-5-sonnet"].startswith("claude-3-5-sonnet-")
     with pytest.raises(ValidationError):
         LiteLLMOptions(api_key=SECRET)  # keys are never options: they would reach a run directory
