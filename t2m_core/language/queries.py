@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any, TypeVar
 
 from t2m_core.domain.goals import Goal, GoalError
 from t2m_core.domain.skills import SkillCall, SkillError
@@ -20,6 +21,8 @@ from t2m_core.language import instruction_cues as cues
 from t2m_core.language.parsing import SkillCandidates, parse_goal_answer, parse_skill_candidates, parse_skill_sequences
 from t2m_core.language.prompts import GOAL_REQUEST, NEXT_SKILL_REQUEST, SHOOTING_REQUEST, K
 from t2m_core.protocols import LanguageModel
+
+T = TypeVar("T")
 
 GOAL_RETRIES = 2
 """Re-queries after an invalid goal, then the episode is a planning failure."""
@@ -58,6 +61,31 @@ class GoalQuery:
     attempts: list[Attempt]
 
 
+def _ask_until_valid(
+    model: LanguageModel,
+    prompt: str,
+    grammar: str | None,
+    request: dict[str, Any],
+    read: Callable[[str], tuple[T, str | None]],
+    retries: int,
+) -> tuple[T, list[Attempt]]:
+    """Ask ``model`` until ``read(answer)`` finds no problem, at most ``retries + 1`` times; each
+    retry carries a note about the answer before it (:func:`with_error_note`).
+
+    ``read`` returns ``(value, problem)``, ``problem`` ``None`` for a usable answer. Returns the last
+    value read and every attempt."""
+    attempts: list[Attempt] = []
+    current = prompt
+    for _ in range(retries + 1):
+        answer = model.complete(current, grammar=grammar, **request)[0]
+        value, problem = read(answer)
+        attempts.append(Attempt(current, answer, problem))
+        if problem is None:
+            break
+        current = with_error_note(prompt, answer, problem)
+    return value, attempts
+
+
 def query_goal(
     model: LanguageModel,
     prompt: str,
@@ -77,19 +105,15 @@ def query_goal(
     relations = cues.named_relations(instruction) if instruction else cues.GOAL_RELATIONS
     count = cues.count_cue(instruction, objects) if instruction else None
     grammar = _grammar_for(model, constrained, lambda: grammars.goal_grammar(objects, relations=relations, count=count))
-    attempts: list[Attempt] = []
-    current = prompt
-    for _ in range(retries + 1):
-        answer = model.complete(current, grammar=grammar, **GOAL_REQUEST)[0]
+
+    def read(answer: str) -> tuple[Goal | None, str | None]:
         try:
-            goal = parse_goal_answer(answer, objects)
+            return parse_goal_answer(answer, objects), None
         except GoalError as error:
-            attempts.append(Attempt(current, answer, error.message))
-            current = with_error_note(prompt, answer, error.message)
-            continue
-        attempts.append(Attempt(current, answer, None))
-        return GoalQuery(cues.complete_counted_goal(goal, count), attempts)
-    return GoalQuery(None, attempts)
+            return None, error.message
+
+    goal, attempts = _ask_until_valid(model, prompt, grammar, GOAL_REQUEST, read, retries)
+    return GoalQuery(None if goal is None else cues.complete_counted_goal(goal, count), attempts)
 
 
 def query_next_skills(
@@ -114,23 +138,17 @@ def query_next_skills(
         constrained,
         lambda: grammars.skill_list_grammar(objects, k, typed=check_types, allow_stop=allow_stop, calls=calls),
     )
-    attempts: list[Attempt] = []
-    current = prompt
-    candidates = SkillCandidates()
-    for _ in range(retries + 1):
-        answer = model.complete(current, grammar=grammar, **NEXT_SKILL_REQUEST)[0]
+
+    def read(answer: str) -> tuple[SkillCandidates, str | None]:
         try:
             candidates = parse_skill_candidates(answer, objects, k, check_types=check_types, allow_stop=allow_stop)
         except SkillError as error:
-            problem = error.message
-        else:
-            if candidates.calls:
-                attempts.append(Attempt(current, answer, None))
-                return candidates, attempts
-            problem = "no valid skill call: " + "; ".join(rejected.reason for rejected in candidates.rejected[:2])
-        attempts.append(Attempt(current, answer, problem))
-        current = with_error_note(prompt, answer, problem)
-    return candidates, attempts
+            return SkillCandidates(), error.message
+        if candidates.calls:
+            return candidates, None
+        return candidates, "no valid skill call: " + "; ".join(rejected.reason for rejected in candidates.rejected[:2])
+
+    return _ask_until_valid(model, prompt, grammar, NEXT_SKILL_REQUEST, read, retries)
 
 
 def query_skill_sequences(
@@ -146,20 +164,14 @@ def query_skill_sequences(
 ) -> tuple[list[tuple[SkillCall, ...]], list[Attempt]]:
     """Ask for K whole skill sequences (shooting); re-query while none is valid."""
     grammar = _grammar_for(model, constrained, lambda: grammars.skill_sequences_grammar(objects, k, d_max, typed=check_types))
-    attempts: list[Attempt] = []
-    current = prompt
-    sequences: list[tuple[SkillCall, ...]] = []
-    for _ in range(retries + 1):
-        answer = model.complete(current, grammar=grammar, **SHOOTING_REQUEST)[0]
+
+    def read(answer: str) -> tuple[list[tuple[SkillCall, ...]], str | None]:
         try:
             sequences, rejected = parse_skill_sequences(answer, objects, k, check_types=check_types)
         except SkillError as error:
-            problem = error.message
-        else:
-            if sequences:
-                attempts.append(Attempt(current, answer, None))
-                return sequences, attempts
-            problem = "no valid skill sequence: " + "; ".join(item.reason for item in rejected[:2])
-        attempts.append(Attempt(current, answer, problem))
-        current = with_error_note(prompt, answer, problem)
-    return sequences, attempts
+            return [], error.message
+        if sequences:
+            return sequences, None
+        return sequences, "no valid skill sequence: " + "; ".join(item.reason for item in rejected[:2])
+
+    return _ask_until_valid(model, prompt, grammar, SHOOTING_REQUEST, read, retries)

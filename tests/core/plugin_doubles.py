@@ -78,3 +78,49 @@ class EveryKind:
     @hookimpl
     def t2m_register_task_planners(self) -> list[TaskPlannerSpec]:
         return [TaskPlannerSpec(name="toy-hybrid", factory="builtins:object", summary="Toy task planner")]
+
+
+class ScriptedSimulator:
+    """A simulator without physics: resets to the sampled scene of a task and seed, and reports every
+    primitive with the scripted outcome (``success``, else a ``"collision"``) without moving anything."""
+
+    def __init__(self, success: bool) -> None:
+        self.success = success
+        self.state: Any = None
+        self.objects: tuple[str, ...] = ()
+
+    def reset(self, task: Any, *, seed: int) -> Any:
+        from t2m_core.domain.sampling import sample_task
+        from t2m_core.protocols import ResetResult
+
+        sampled = sample_task(task, seed)
+        self.state, self.objects = sampled.state, task.objects
+        return ResetResult(sampled.state, self.observation(), sampled.accepted_seed, sampled.rejections)
+
+    def execute(self, primitive: str, arguments: Any, action: Any) -> Any:
+        from t2m_core.protocols import PrimitiveResult
+
+        failure = None if self.success else "collision"
+        return PrimitiveResult(self.success, not self.success, failure, self.state, self.observation())
+
+    def get_state(self) -> Any:
+        return self.state
+
+    def set_state(self, snapshot: Any) -> None:
+        self.state = snapshot
+
+    def geometric_state(self) -> Any:
+        return self.state
+
+    def observation(self) -> Any:
+        from t2m_core.domain.observation import encode_observation
+
+        return encode_observation(self.state, self.objects)
+
+    def render(self, camera: str | None = None, *, depth: bool = False) -> Any:
+        import numpy as np
+
+        return np.zeros((8, 8, 3), dtype=np.uint8)
+
+    def close(self) -> None:
+        pass

@@ -7,13 +7,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from t2m_core.domain.observation import encode_observation
-from t2m_core.domain.sampling import sample_task
 from t2m_core.domain.state import GeometricState, ObjectPose
-from t2m_core.protocols import PrimitiveResult, ResetResult
 from t2m_core.tasks import load_task
 from t2m_core.testing import check_simulator
 from t2m_core.testing.success_facts import success_problems
+from tests.core.plugin_doubles import ScriptedSimulator
 
 TILTED = np.array([np.sin(0.2), 0.0, 0.0, np.cos(0.2)])  # 23° about x
 
@@ -69,41 +67,7 @@ def test_pull_and_push_are_confirmed_only_when_the_box_moved_the_right_way():
     assert any("not pushed" in p for p in short) and any("does not overlap" in p for p in short)
 
 
-class LyingSimulator:
-    """Resets to the sampled scene and reports every primitive as a success without moving anything."""
-
-    def __init__(self) -> None:
-        self.state: GeometricState | None = None
-        self.objects: tuple[str, ...] = ()
-
-    def reset(self, task, *, seed):
-        sampled = sample_task(task, seed)
-        self.state, self.objects = sampled.state, task.objects
-        return ResetResult(sampled.state, self.observation(), sampled.accepted_seed, sampled.rejections)
-
-    def execute(self, primitive, arguments, action):
-        return PrimitiveResult(True, False, None, self.state, self.observation())
-
-    def get_state(self):
-        return self.state
-
-    def set_state(self, snapshot):
-        self.state = snapshot
-
-    def geometric_state(self):
-        return self.state
-
-    def observation(self):
-        return encode_observation(self.state, self.objects)
-
-    def render(self, camera=None, *, depth=False):
-        return np.zeros((4, 4, 3), dtype=np.uint8)
-
-    def close(self):
-        pass
-
-
 def test_check_simulator_rejects_a_backend_that_reports_false_successes():
     assert load_task("task0").reference_skeleton[0].name == "pick"
     with pytest.raises(AssertionError, match=r"pick\('yellow_box',\): reported success, but yellow_box is not held"):
-        check_simulator(LyingSimulator, task_ids=("task0",), seeds=(0,))
+        check_simulator(lambda: ScriptedSimulator(success=True), task_ids=("task0",), seeds=(0,))
