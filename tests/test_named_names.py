@@ -32,7 +32,7 @@ from t2m_core.config.models import COMPONENT_BLOCKS, ComponentConfig, RunConfig
 from t2m_core.registry import get_registry
 
 ROOT = Path(__file__).parents[1]
-SET_KEY = re.compile(r"--set[ =]+([A-Za-z_][\w.]*)=")
+SET_KEY = re.compile(r"--set[ =]+([A-Za-z_]\w*(?:\.[A-Za-z_]\w*)*)(?:=|\.\.\.)")
 PLACEHOLDER_KEYS = {"a.b", "a.b.c", "dotted.key", "key"}
 CODE_SPAN = re.compile(r"``?([^`\n]+?)``?")
 COMMAND = re.compile(r"(?<![\w/.-])t2m((?:\s+[a-z][\w-]*)+)([^|;#&]*)")
@@ -227,6 +227,12 @@ def test_every_named_command_and_option_exists() -> None:
 )
 def test_config_keys_are_checked_against_the_schema(key: str, ok: bool) -> None:
     assert (config_key_problem(key) is None) == ok, config_key_problem(key)
+
+
+def test_set_keys_are_found_with_a_value_or_an_ellipsis() -> None:
+    assert SET_KEY.findall("--set seed=3, --set simulator.options..., --set language_model.options.n_ctx=4") == [
+        "seed", "simulator.options", "language_model.options.n_ctx"
+    ]
 
 
 def test_commands_and_options_are_checked_against_the_app() -> None:
