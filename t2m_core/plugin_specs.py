@@ -45,18 +45,23 @@ class ComponentSpec:
 
     def load_factory(self) -> Callable[..., Any]:
         """Import and return the factory callable."""
-        if callable(self.factory):
-            return self.factory
-        module_name, _, attribute = self.factory.partition(":")
-        if not attribute:
-            raise ValueError(f"factory of {self.kind} {self.name!r} must look like 'module:attribute', got {self.factory!r}")
-        module = importlib.import_module(module_name)
-        return getattr(module, attribute)
+        return load_callable(self.factory, f"factory of {self.kind} {self.name!r}")
 
     def create(self, options: BaseModel | dict[str, Any] | None = None) -> Any:
         """Validate ``options`` against :attr:`options` and build the component."""
         validated = options if isinstance(options, self.options) else self.options.model_validate(options or {})
         return self.load_factory()(validated)
+
+
+def load_callable(target: str | Callable[..., Any], what: str) -> Callable[..., Any]:
+    """``target`` itself if callable, else the attribute its ``"module:attribute"`` path names
+    (imported now). ``what`` names it in the error."""
+    if callable(target):
+        return target
+    module_name, _, attribute = target.partition(":")
+    if not attribute:
+        raise ValueError(f"{what} must look like 'module:attribute', got {target!r}")
+    return getattr(importlib.import_module(module_name), attribute)
 
 
 @dataclass(frozen=True)
@@ -68,9 +73,22 @@ class SimulatorSpec(ComponentSpec):
 
 @dataclass(frozen=True)
 class SkillLibrarySpec(ComponentSpec):
-    """A skill library: its factory returns a mapping of skill name to :class:`~t2m_core.protocols.Skill`."""
+    """A skill library: its factory returns a mapping of skill name to :class:`~t2m_core.protocols.Skill`.
+
+    A library that can be trained, calibrated and reported on by ``t2m train``, ``t2m calibrate`` and
+    ``t2m skills report`` names those entry points (``"module:function"``, imported only when used):
+
+    Attributes:
+        trainer: ``train(skill, models, data, checkpoint, overrides, on_progress) -> dict``.
+        calibrator: ``calibrate(skill, data, checkpoint) -> dict``.
+        reporter: ``report(checkpoints, data, episodes, out, simulator) -> dict``.
+    """
 
     kind: ClassVar[str] = "skill_library"
+
+    trainer: str | Callable[..., Any] | None = None
+    calibrator: str | Callable[..., Any] | None = None
+    reporter: str | Callable[..., Any] | None = None
 
 
 @dataclass(frozen=True)

@@ -140,6 +140,10 @@ class Skill(Protocol):
     action_dim: int
     """Dimension of the normalised action (4 for every TableEnv primitive)."""
 
+    ood_threshold: float
+    """ε of the OOD detector: a (state, action) whose ensemble variance is ≥ ε is out of
+    distribution (docs/guide/skills.md#ood-detection)."""
+
     def policy(self, states: Any) -> Any:
         """Deterministic action ``(N, 4)`` for ``(N, 96)`` states."""
         ...

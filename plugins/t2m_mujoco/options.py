@@ -1,4 +1,4 @@
-"""Options of the MuJoCo simulator (validated from ``--set sim.options...`` and config files)."""
+"""Options of the MuJoCo simulator (validated from ``--set simulator.options...`` and config files)."""
 
 from __future__ import annotations
 

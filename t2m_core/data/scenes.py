@@ -16,7 +16,7 @@ import numpy as np
 
 from t2m_core.domain.enumeration import DATA_MOVABLES, SymbolicState, enumerate_groundings, enumerate_symbolic_states
 from t2m_core.domain.objects import ObjectKind, object_spec
-from t2m_core.domain.predicates import Proposition, canonical_order
+from t2m_core.domain.propositions import Proposition, canonical_order
 from t2m_core.domain.skills import SkillCall
 
 DATA_SKILLS: tuple[str, ...] = ("pick", "place", "pull", "push")

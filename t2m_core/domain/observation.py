@@ -198,6 +198,14 @@ def skill_state(observation: np.ndarray, row_order: RowOrder, rng: np.random.Gen
     return normalize(reordered).reshape(*obs.shape[:-2], STATE_DIM)
 
 
+def reordered_rows(observation: np.ndarray, orders: np.ndarray) -> np.ndarray:
+    """Normalised rows in per-sample orders: ``(N, 8, 12)`` observations and ``(N, 8)`` orders (as
+    :attr:`RowOrder.order` gives them) → ``(N, 8, 12) float32``; flattening gives the unshuffled
+    skill state of every sample (how a trainer encodes a dataset whose samples have different calls)."""
+    obs = _check_observation(observation)
+    return normalize(_reorder(obs, np.asarray(orders, dtype=np.int64)))
+
+
 def dynamics_state(observation: np.ndarray, row_order: RowOrder) -> np.ndarray:
     """Dynamics input: argument-first, never shuffled, normalised. ``(..., 8, 12)`` →
     ``(..., 96) float32``."""

@@ -21,6 +21,8 @@ from typing import Any
 _LAZY: dict[str, str] = {
     "check_simulator": "t2m_core.testing.simulator",
     "check_language_model": "t2m_core.testing.language_model",
+    "check_skill": "t2m_core.testing.skill",
+    "sample_skill_states": "t2m_core.testing.skill",
     "check_scene_parser": "t2m_core.testing.scene_parser",
     "sample_observation": "t2m_core.testing.scene_parser",
     "check_plugin_spec": "t2m_core.testing.plugins",
@@ -40,7 +42,9 @@ __all__ = [
     "check_plugin_spec",
     "check_scene_parser",
     "check_simulator",
+    "check_skill",
     "sample_observation",
+    "sample_skill_states",
     "write_fake_distribution",
 ]
 

@@ -1,0 +1,99 @@
+"""The learned TableEnv skills as :class:`t2m_core.protocols.Skill` objects
+(docs/guide/skills.md#the-skill-library).
+
+Each method takes NumPy arrays or torch tensors and answers in the same kind, batched over the
+first axis, without gradients. Models are loaded once, when the library is built.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from t2m_core.data.scenes import DATA_SKILLS
+from t2m_skills_tableenv.checkpoints import CheckpointError, load_weights, read_config
+from t2m_skills_tableenv.networks import Dynamics, GaussianPolicy, QEnsemble
+from t2m_skills_tableenv.options import TableEnvSkillsOptions
+from t2m_skills_tableenv.training import WEIGHT_FILES
+
+
+class TableEnvSkill:
+    """One learned skill: policy, Q-ensemble, dynamics and OOD threshold.
+
+    Attributes:
+        name: the primitive (``"pick"``).
+        action_dim: 4.
+        ensemble_size: B, the Q-ensemble's members (8).
+        ood_threshold: ε; a (state, action) whose member variance is ≥ ε is out of distribution.
+        config: the checkpoint's ``config.json``.
+    """
+
+    action_dim = 4
+
+    def __init__(self, name: str, q_ensemble: QEnsemble, policy: GaussianPolicy, dynamics: Dynamics, config: dict[str, Any]) -> None:
+        self.name = name
+        self.q_ensemble = q_ensemble.eval().requires_grad_(False)
+        self.policy_network = policy.eval().requires_grad_(False)
+        self.dynamics = dynamics.eval().requires_grad_(False)
+        self.ensemble_size = q_ensemble.members
+        self.config = config
+        self.ood_threshold = float(config.get("ood", {}).get("threshold", np.inf))
+
+    @classmethod
+    def load(cls, directory: Path) -> TableEnvSkill:
+        """Load a skill checkpoint directory.
+
+        Raises:
+            CheckpointError: a missing, corrupt or mismatched file, named.
+        """
+        directory = Path(directory)
+        config = read_config(directory)
+        name = config.get("skill", directory.name)
+        missing = [m for m in WEIGHT_FILES if m not in config.get("models", {})]
+        if missing:
+            raise CheckpointError(f"{directory / 'config.json'} has no {', '.join(missing)} model", f"train it: t2m train --skill {name} --model all")
+        return cls(
+            name,
+            load_weights(directory / WEIGHT_FILES["q"], QEnsemble()),
+            load_weights(directory / WEIGHT_FILES["policy"], GaussianPolicy()),
+            load_weights(directory / WEIGHT_FILES["dynamics"], Dynamics()),
+            config,
+        )
+
+    @torch.no_grad()
+    def policy(self, states: Any) -> Any:
+        """Deterministic actions ``(N, 4)`` in [−1, 1] for skill states ``(N, 96)``."""
+        return _same_kind(states, self.policy_network(_tensor(states)))
+
+    @torch.no_grad()
+    def q_values(self, states: Any, actions: Any) -> Any:
+        """Success probability of every member, ``(N, B)``, for ``(N, 96)`` states and ``(N, 4)`` actions."""
+        return _same_kind(states, self.q_ensemble.probabilities(_tensor(states), _tensor(actions)))
+
+    @torch.no_grad()
+    def predict(self, states: Any, actions: Any) -> Any:
+        """Predicted next dynamics state ``(N, 96)`` (normalised, argument-first; not yet clamped)."""
+        return _same_kind(states, self.dynamics(_tensor(states), _tensor(actions)))
+
+
+def _tensor(values: Any) -> torch.Tensor:
+    if isinstance(values, torch.Tensor):
+        return values.float()
+    return torch.from_numpy(np.ascontiguousarray(values, dtype=np.float32))
+
+
+def _same_kind(like: Any, result: torch.Tensor) -> Any:
+    return result if isinstance(like, torch.Tensor) else result.numpy()
+
+
+def load_library(options: TableEnvSkillsOptions | None = None) -> dict[str, TableEnvSkill]:
+    """The four skills from ``options.checkpoints`` (the shipped checkpoints by default).
+
+    Raises:
+        CheckpointError: a skill's checkpoint is missing or broken.
+    """
+    options = options or TableEnvSkillsOptions()
+    return {name: TableEnvSkill.load(Path(options.checkpoints) / name) for name in DATA_SKILLS}

@@ -1,0 +1,174 @@
+"""The skill library's quality report (``t2m skills report``, docs/guide/skills.md#quality-report).
+
+Per skill: Q-ensemble precision, recall and accuracy of the pessimistic prediction on validation
+data with a reliability curve; policy success in simulated evaluation scenes; dynamics error of the
+moved object and of the others (position in mm, yaw in degrees) on validation successes; the OOD
+detection and false-positive rates stored by calibration; the dataset sizes.
+"""
+
+from __future__ import annotations
+
+import io
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from t2m_core.atomic_files import write_bytes_atomic, write_json_atomic, write_text_atomic
+from t2m_core.data.scenes import DATA_SKILLS
+from t2m_core.domain.geometry import axis_angle_to_quat, quat_yaw, wrap_angle
+from t2m_core.domain.observation import RowOrder, decode_dynamics_prediction
+from t2m_skills_tableenv.dataset import SkillTensors
+from t2m_skills_tableenv.library import TableEnvSkill
+from t2m_skills_tableenv.training import q_metrics
+
+RELIABILITY_BINS = np.linspace(0.0, 1.0, 11)
+
+
+def reliability(predicted: np.ndarray, success: np.ndarray) -> list[dict[str, float]]:
+    """Per bin of predicted probability: count, mean prediction, realised success rate."""
+    bins = np.clip(np.digitize(predicted, RELIABILITY_BINS) - 1, 0, len(RELIABILITY_BINS) - 2)
+    rows = []
+    for b in range(len(RELIABILITY_BINS) - 1):
+        mask = bins == b
+        if mask.any():
+            rows.append({"bin_low": round(float(RELIABILITY_BINS[b]), 2), "count": int(mask.sum()), "predicted": float(predicted[mask].mean()), "realised": float(success[mask].mean())})
+    return rows
+
+
+@torch.no_grad()
+def dynamics_errors(skill: TableEnvSkill, data: SkillTensors, row_orders: np.ndarray, shuffle_ranges: np.ndarray, observations: np.ndarray, next_observations: np.ndarray) -> dict[str, float]:
+    """Median and 90th-percentile position (mm) and yaw (degrees) errors of the decoded dynamics
+    prediction against the true next observation, for the moved object (the first argument) and
+    for the other present objects."""
+    predicted = skill.predict(data.states(), data.actions).numpy()
+    errors: dict[str, list[float]] = {"moved_mm": [], "moved_deg": [], "others_mm": [], "others_deg": []}
+    for i in range(len(predicted)):
+        order = row_orders[i].astype(np.int64)
+        row_order = RowOrder(order, int(shuffle_ranges[i, 0]), int(shuffle_ranges[i, 1]))
+        present = row_order.num_present
+        decoded = decode_dynamics_prediction(predicted[i], observations[i], row_order)
+        truth = next_observations[i]
+        moved = int(order[1])
+        for row in range(1, 1 + present):
+            if not truth[row].any():
+                continue  # the table: a constant row
+            key = "moved" if row == moved else "others"
+            errors[f"{key}_mm"].append(1000.0 * float(np.linalg.norm(decoded[row, :3] - truth[row, :3])))
+            yaw_error = wrap_angle(quat_yaw(axis_angle_to_quat(decoded[row, 3:6])) - quat_yaw(axis_angle_to_quat(truth[row, 3:6])))
+            errors[f"{key}_deg"].append(abs(float(np.degrees(yaw_error))))
+    summary = {}
+    for key, values in errors.items():
+        if values:
+            summary[f"{key}_median"] = float(np.median(values))
+            summary[f"{key}_p90"] = float(np.percentile(values, 90))
+    return summary
+
+
+def policy_success(skill: TableEnvSkill, simulator: Any, episodes: int, seed: int = 0) -> dict[str, Any]:
+    """Success of the deterministic policy over ``episodes`` evaluation scenes, simulated."""
+    from t2m_core.data.evaluation_scenes import evaluation_task
+    from t2m_core.domain.observation import argument_first_order, skill_state
+    from t2m_core.domain.sampling import SamplingError
+
+    rng = np.random.default_rng(seed)
+    outcomes: Counter[str] = Counter()
+    for _ in range(episodes):
+        task = evaluation_task(skill.name, rng)
+        try:
+            reset = simulator.reset(task, seed=int(rng.integers(2**31 - 1)))
+        except SamplingError:
+            outcomes["reset_failed"] += 1
+            continue
+        state = skill_state(reset.observation, argument_first_order(task.objects, task.call.args))
+        action = skill.policy(state[None])[0]
+        result = simulator.execute(skill.name, task.call.args, action)
+        outcomes[result.failure or "success"] += 1
+    simulated = sum(v for k, v in outcomes.items() if k != "reset_failed")
+    return {"episodes": simulated, "success_rate": outcomes["success"] / simulated if simulated else 0.0, "outcomes": dict(outcomes)}
+
+
+def report_library(checkpoints: Path, data: Path | None, episodes: int, out: Path, simulator: Any | None) -> dict[str, Any]:
+    """Measure every skill of the library in ``checkpoints``; write ``report.json``, ``report.md``
+    and ``reliability.png`` into ``out``; return the report."""
+    from t2m_core.data.generate import MANIFEST_NAME, load_split
+
+    report: dict[str, Any] = {}
+    for name in DATA_SKILLS:
+        skill = TableEnvSkill.load(Path(checkpoints) / name)
+        entry: dict[str, Any] = {"ood": {k: skill.config.get("ood", {}).get(k) for k in ("threshold", "detection_rate", "false_positive_rate")}}
+        if data is not None:
+            import json
+
+            entry["dataset"] = {
+                split: json.loads((Path(data) / name / split / MANIFEST_NAME).read_text())["count"]
+                for split in ("train", "validation", "invalid")
+                if (Path(data) / name / split / MANIFEST_NAME).exists()
+            }
+            transitions = load_split(Path(data) / name / "validation")
+            validation = SkillTensors.from_transitions(transitions)
+            entry["q"] = q_metrics(skill.q_ensemble, validation)
+            q_min = skill.q_values(validation.states(), validation.actions).min(dim=1).values.numpy()
+            entry["reliability"] = reliability(q_min, transitions.success)
+            keep = transitions.success
+            entry["dynamics"] = dynamics_errors(
+                skill, validation.successes(), transitions.row_order[keep], transitions.shuffle_range[keep], transitions.observation[keep], transitions.next_observation[keep]
+            )
+        if simulator is not None and episodes > 0:
+            entry["policy"] = policy_success(skill, simulator, episodes)
+        report[name] = entry
+    out.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(out / "report.json", report)
+    write_text_atomic(out / "report.md", markdown_table(report))
+    if data is not None:
+        plot_reliability(out / "reliability.png", report)
+    return report
+
+
+def markdown_table(report: dict[str, Any]) -> str:
+    """The report as one markdown table, a row per skill."""
+    lines = [
+        "| skill | train / validation / invalid | Q precision | Q recall | Q accuracy | policy success | dynamics moved object, median mm / deg | others, median mm | OOD detection | OOD false positives |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+
+    def percent(value: Any) -> str:
+        return f"{value:.1%}" if isinstance(value, float) else "-"
+
+    for name, entry in report.items():
+        sizes = entry.get("dataset", {})
+        q, dynamics, ood = entry.get("q", {}), entry.get("dynamics", {}), entry.get("ood", {})
+        policy = entry.get("policy")
+        lines.append(
+            f"| {name} | {sizes.get('train', '-')} / {sizes.get('validation', '-')} / {sizes.get('invalid', '-')} "
+            f"| {percent(q.get('precision'))} | {percent(q.get('recall'))} | {percent(q.get('accuracy'))} "
+            f"| {percent(policy['success_rate']) + ' of ' + str(policy['episodes']) if policy else '-'} "
+            f"| {dynamics.get('moved_mm_median', float('nan')):.1f} / {dynamics.get('moved_deg_median', float('nan')):.1f} "
+            f"| {dynamics.get('others_mm_median', float('nan')):.1f} | {percent(ood.get('detection_rate'))} | {percent(ood.get('false_positive_rate'))} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def plot_reliability(path: Path, report: dict[str, Any]) -> None:
+    """Realised success against the predicted min-of-8 Q, one line per skill."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, axis = plt.subplots(figsize=(5, 5))
+    axis.plot([0, 1], [0, 1], color="grey", linestyle="--", linewidth=1, label="perfect calibration")
+    for name, entry in report.items():
+        rows = entry.get("reliability", [])
+        if rows:
+            axis.plot([r["predicted"] for r in rows], [r["realised"] for r in rows], marker="o", label=name)
+    axis.set_xlabel("predicted success (min of 8 Q members)")
+    axis.set_ylabel("realised success (validation)")
+    axis.set_title("Q-ensemble reliability")
+    axis.legend()
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=90, bbox_inches="tight")
+    plt.close(figure)
+    write_bytes_atomic(path, buffer.getvalue())

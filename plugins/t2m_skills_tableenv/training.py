@@ -1,0 +1,389 @@
+"""Training of a skill's three models (docs/guide/skills.md#q-ensemble, #policy, #dynamics).
+
+The stages run in order: the Q-ensemble on all valid transitions, then the policy against the
+frozen ensemble, then the dynamics on the successes. Each stage:
+
+- keeps the model with the best validation score (evaluated every ``eval_every`` steps);
+- writes its metrics, one JSON line per evaluation, to ``<checkpoint>/metrics-<model>.jsonl``;
+- saves a resumable training state (weights, optimiser moments, step, RNG, best score) every
+  evaluation to ``<checkpoint>/.training/<model>.safetensors``: a killed run, started again with the
+  same command, continues from its last evaluation.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import torch
+from pydantic import BaseModel, ConfigDict, Field
+from torch import nn
+
+from t2m_skills_tableenv.checkpoints import load_training_state, save_training_state, save_weights, update_config
+from t2m_skills_tableenv.dataset import SkillTensors
+from t2m_skills_tableenv.networks import ACTION_DIM, Dynamics, GaussianPolicy, QEnsemble
+
+MODELS: tuple[str, ...] = ("q", "policy", "dynamics")
+WEIGHT_FILES: dict[str, str] = {"q": "q_ensemble.safetensors", "policy": "policy.safetensors", "dynamics": "dynamics.safetensors"}
+
+
+class StageSettings(BaseModel):
+    """How one model is trained. The published schedules (millions of steps on a GPU) are shortened
+    for CPU; the learning rates and batch sizes are the published ones."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    steps: int = Field(gt=0, description="optimiser steps")
+    batch_size: int = Field(gt=0, description="samples per step")
+    learning_rate: float = Field(gt=0, description="Adam learning rate (cosine-annealed to 0 for the Q-ensemble)")
+    eval_every: int = Field(1000, gt=0, description="steps between validation evaluations and saved states")
+    seed: int = Field(0, ge=0, description="torch seed of initialisation, batches and shuffles")
+
+
+DEFAULT_SETTINGS: dict[str, StageSettings] = {
+    "q": StageSettings(steps=20_000, batch_size=128, learning_rate=1e-4),
+    "policy": StageSettings(steps=20_000, batch_size=128, learning_rate=1e-4),
+    "dynamics": StageSettings(steps=20_000, batch_size=512, learning_rate=5e-4),
+}
+"""CPU-scale defaults (docs/guide/skills.md#training-schedule)."""
+
+
+@dataclass
+class Evaluation:
+    """One validation evaluation: ``score`` (higher is better) selects the model."""
+
+    score: float
+    metrics: dict[str, float]
+
+
+class Stage:
+    """One model's training: what the generic loop needs to know."""
+
+    model: str
+    network: nn.Module
+
+    def parameters_to_save(self) -> dict[str, nn.Module | torch.optim.Optimizer]:
+        raise NotImplementedError
+
+    def step(self, index: torch.Tensor, generator: torch.Generator) -> dict[str, float]:
+        raise NotImplementedError
+
+    def evaluate(self) -> Evaluation:
+        raise NotImplementedError
+
+    @property
+    def train_size(self) -> int:
+        raise NotImplementedError
+
+
+class QStage(Stage):
+    """BCE of every member's sigmoid to the reward; all members see the same batch."""
+
+    model = "q"
+
+    def __init__(self, train: SkillTensors, validation: SkillTensors, settings: StageSettings) -> None:
+        self.train, self.validation = train, validation
+        self.network = QEnsemble()
+        self.optimizer = torch.optim.Adam(self.network.parameters(), lr=settings.learning_rate)
+        self.schedule = torch.optim.lr_scheduler.CosineAnnealingLR(self.optimizer, T_max=settings.steps, eta_min=0.0)
+
+    @property
+    def train_size(self) -> int:
+        return len(self.train)
+
+    def parameters_to_save(self) -> dict[str, nn.Module | torch.optim.Optimizer]:
+        return {"network": self.network, "optimizer": self.optimizer, "schedule": _SchedulerModule(self.schedule)}
+
+    def step(self, index: torch.Tensor, generator: torch.Generator) -> dict[str, float]:
+        states = self.train.states(index, generator)
+        logits = self.network(states, self.train.actions[index])
+        targets = self.train.rewards[index, None].expand_as(logits)
+        loss = nn.functional.binary_cross_entropy_with_logits(logits, targets)
+        self.optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        self.optimizer.step()
+        self.schedule.step()
+        return {"loss": loss.item()}
+
+    @torch.no_grad()
+    def evaluate(self) -> Evaluation:
+        metrics = q_metrics(self.network, self.validation)
+        return Evaluation(-metrics["loss"], metrics)
+
+
+class PolicyStage(Stage):
+    """Maximum-entropy actor against the frozen ensemble: minimise α·log π(ã|s) − min_i Q_i(s, ã),
+    with α learned through log α towards the target entropy −4."""
+
+    model = "policy"
+
+    def __init__(self, train: SkillTensors, validation: SkillTensors, q_ensemble: QEnsemble, settings: StageSettings) -> None:
+        self.train, self.validation = train, validation
+        self.q_ensemble = q_ensemble.requires_grad_(False)
+        self.network = GaussianPolicy()
+        self.log_alpha = _LogAlpha()
+        self.optimizer = torch.optim.Adam(self.network.parameters(), lr=settings.learning_rate)
+        self.alpha_optimizer = torch.optim.Adam(self.log_alpha.parameters(), lr=settings.learning_rate)
+        self.target_entropy = -float(ACTION_DIM)
+
+    @property
+    def train_size(self) -> int:
+        return len(self.train)
+
+    def parameters_to_save(self) -> dict[str, nn.Module | torch.optim.Optimizer]:
+        return {"network": self.network, "optimizer": self.optimizer, "log_alpha": self.log_alpha, "alpha_optimizer": self.alpha_optimizer}
+
+    def step(self, index: torch.Tensor, generator: torch.Generator) -> dict[str, float]:
+        states = self.train.states(index, generator)
+        actions, log_prob = self.network.sample(states)
+        q_min = self.q_ensemble.probabilities(states, actions).min(dim=1).values
+        alpha = self.log_alpha.value.exp().detach()
+        loss = (alpha * log_prob - q_min).mean()
+        self.optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        self.optimizer.step()
+        alpha_loss = -(self.log_alpha.value * (log_prob.detach() + self.target_entropy)).mean()
+        self.alpha_optimizer.zero_grad(set_to_none=True)
+        alpha_loss.backward()
+        self.alpha_optimizer.step()
+        return {"loss": loss.item(), "alpha": alpha.item(), "q_min": q_min.mean().item()}
+
+    @torch.no_grad()
+    def evaluate(self) -> Evaluation:
+        states = self.validation.states()
+        q_min = self.q_ensemble.probabilities(states, self.network(states)).min(dim=1).values
+        metrics = {"q_min_mean": float(q_min.mean()), "q_min_above_half": float((q_min > 0.5).float().mean())}
+        return Evaluation(metrics["q_min_mean"], metrics)
+
+
+class DynamicsStage(Stage):
+    """MSE of the residual prediction to the encoded next state, on successful transitions."""
+
+    model = "dynamics"
+
+    def __init__(self, train: SkillTensors, validation: SkillTensors, settings: StageSettings) -> None:
+        self.train, self.validation = train.successes(), validation.successes()
+        self.network = Dynamics()
+        self.optimizer = torch.optim.Adam(self.network.parameters(), lr=settings.learning_rate)
+
+    @property
+    def train_size(self) -> int:
+        return len(self.train)
+
+    def parameters_to_save(self) -> dict[str, nn.Module | torch.optim.Optimizer]:
+        return {"network": self.network, "optimizer": self.optimizer}
+
+    def step(self, index: torch.Tensor, generator: torch.Generator) -> dict[str, float]:
+        states = self.train.states(index)
+        targets = self.train.next_rows[index].reshape(len(index), -1)
+        loss = nn.functional.mse_loss(self.network(states, self.train.actions[index]), targets)
+        self.optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        self.optimizer.step()
+        return {"loss": loss.item()}
+
+    @torch.no_grad()
+    def evaluate(self) -> Evaluation:
+        states = self.validation.states()
+        targets = self.validation.next_rows.reshape(len(self.validation), -1)
+        loss = float(nn.functional.mse_loss(self.network(states, self.validation.actions), targets))
+        return Evaluation(-loss, {"loss": loss})
+
+
+@torch.no_grad()
+def q_metrics(network: QEnsemble, data: SkillTensors) -> dict[str, float]:
+    """Validation BCE, and precision / recall / accuracy of the pessimistic prediction
+    min_i Q_i > 0.5 (what planning uses) against the rewards."""
+    states = data.states()
+    logits = network(states, data.actions)
+    targets = data.rewards[:, None].expand_as(logits)
+    loss = float(nn.functional.binary_cross_entropy_with_logits(logits, targets))
+    predicted = torch.sigmoid(logits).min(dim=1).values > 0.5
+    actual = data.rewards > 0.5
+    true_positive = float((predicted & actual).sum())
+    return {
+        "loss": loss,
+        "precision": true_positive / max(float(predicted.sum()), 1.0),
+        "recall": true_positive / max(float(actual.sum()), 1.0),
+        "accuracy": float((predicted == actual).float().mean()),
+    }
+
+
+class _LogAlpha(nn.Module):
+    def __init__(self) -> None:
+        super().__init__()
+        self.value = nn.Parameter(torch.tensor(math.log(0.1)))
+
+
+class _SchedulerModule(nn.Module):
+    """Carries a scheduler's step count through :func:`save_training_state` as a buffer."""
+
+    def __init__(self, schedule: torch.optim.lr_scheduler.LRScheduler) -> None:
+        super().__init__()
+        self.schedule = schedule
+        self.register_buffer("last_epoch", torch.tensor(schedule.last_epoch))
+
+    def state_dict(self, *args: Any, **kwargs: Any) -> dict[str, Any]:
+        return {"last_epoch": torch.tensor(self.schedule.last_epoch)}
+
+    def load_state_dict(self, state: dict[str, Any], strict: bool = True, assign: bool = False) -> Any:
+        self.schedule.last_epoch = int(state["last_epoch"])
+        self.schedule._last_lr = [group["lr"] for group in self.schedule.optimizer.param_groups]  # noqa: SLF001
+        return None
+
+
+# --------------------------------------------------------------------------------------------------
+# The loop
+# --------------------------------------------------------------------------------------------------
+
+
+def run_stage(
+    stage: Stage,
+    settings: StageSettings,
+    checkpoint: Path,
+    *,
+    on_progress: Callable[[int, dict[str, float]], None] | None = None,
+) -> dict[str, Any]:
+    """Train ``stage`` for ``settings.steps`` steps (resuming from its saved state), keep the best
+    evaluated weights in ``checkpoint/<model>.safetensors`` and return the best metrics.
+
+    Raises:
+        ValueError: an empty training set.
+    """
+    if stage.train_size == 0:
+        raise ValueError(f"no training samples for the {stage.model} model")
+    checkpoint.mkdir(parents=True, exist_ok=True)
+    state_path = checkpoint / ".training" / f"{stage.model}.safetensors"
+    metrics_path = checkpoint / f"metrics-{stage.model}.jsonl"
+    weights_path = checkpoint / WEIGHT_FILES[stage.model]
+    torch.manual_seed(settings.seed)
+    generator = torch.Generator().manual_seed(settings.seed)
+    best = {"score": -math.inf, "step": 0, "metrics": {}}
+    step = 0
+    saved = stage.parameters_to_save()
+    if state_path.exists():
+        extra = load_training_state(state_path, {**saved, "generator": _GeneratorModule(generator)})
+        if extra.get("settings") != settings.model_dump():  # never mix two schedules in one model
+            raise ValueError(
+                f"{state_path} belongs to a run with other settings ({extra.get('settings')}); delete it to "
+                f"train the {stage.model} model afresh"
+            )
+        step, best = extra["step"], extra["best"]
+    elif metrics_path.exists():
+        metrics_path.unlink()  # a fresh run: the old curve is not this run's
+    started = time.perf_counter()
+    running: dict[str, float] = {}
+    while step < settings.steps:
+        index = torch.randint(stage.train_size, (settings.batch_size,), generator=generator)
+        for key, value in stage.step(index, generator).items():
+            running[key] = running.get(key, 0.0) + value
+        step += 1
+        if step % settings.eval_every == 0 or step == settings.steps:
+            evaluation = stage.evaluate()
+            train_means = {f"train_{k}": v / settings.eval_every for k, v in running.items()}
+            running = {}
+            record = {"step": step, "seconds": round(time.perf_counter() - started, 2), **train_means, **evaluation.metrics}
+            with open(metrics_path, "a", encoding="utf-8") as handle:
+                handle.write(json.dumps(record) + "\n")
+            if evaluation.score > best["score"]:
+                best = {"score": evaluation.score, "step": step, "metrics": evaluation.metrics}
+                save_weights(weights_path, stage.network)
+            save_training_state(
+                state_path,
+                {**saved, "generator": _GeneratorModule(generator)},
+                {"step": step, "best": best, "settings": settings.model_dump()},
+            )
+            if on_progress:
+                on_progress(step, record)
+    steps_per_second = settings.steps / max(time.perf_counter() - started, 1e-9)
+    return {"best_step": best["step"], "best": best["metrics"], "steps": settings.steps, "steps_per_second": round(steps_per_second, 1)}
+
+
+class _GeneratorModule(nn.Module):
+    """Carries a torch generator's state through :func:`save_training_state`."""
+
+    def __init__(self, generator: torch.Generator) -> None:
+        super().__init__()
+        self.generator = generator
+
+    def state_dict(self, *args: Any, **kwargs: Any) -> dict[str, Any]:
+        return {"state": self.generator.get_state()}
+
+    def load_state_dict(self, state: dict[str, Any], strict: bool = True, assign: bool = False) -> Any:
+        self.generator.set_state(state["state"])
+        return None
+
+
+def record_stage(checkpoint: Path, skill: str, model: str, settings: StageSettings, result: dict[str, Any], data_digests: dict[str, str]) -> None:
+    """Write what trained the model and how well into the checkpoint's ``config.json``."""
+    from t2m_skills_tableenv.checkpoints import read_config
+
+    config = read_config(checkpoint) if (checkpoint / "config.json").exists() else {}
+    models = dict(config.get("models", {}))
+    models[model] = {
+        "file": WEIGHT_FILES[model],
+        "architecture": ARCHITECTURES[model],
+        "training": settings.model_dump(),
+        "data": data_digests,
+        "result": result,
+    }
+    update_config(checkpoint, skill=skill, models=models)
+
+
+ARCHITECTURES: dict[str, dict[str, Any]] = {
+    "q": {"type": "QEnsemble", "members": 8, "input": 100, "hidden": [256, 256], "output": "sigmoid", "loss": "bce"},
+    "policy": {"type": "GaussianPolicy", "input": 96, "hidden": [256, 256], "output": 8, "squash": "tanh", "log_std": [-5.0, 2.0]},
+    "dynamics": {"type": "Dynamics", "input": 100, "hidden": [256, 256], "output": 96, "residual": True},
+}
+
+
+def train_skill(
+    skill: str,
+    models: tuple[str, ...],
+    data: Path,
+    checkpoint: Path,
+    overrides: dict[str, Any] | None = None,
+    *,
+    on_progress: Callable[[str, int, int, dict[str, float]], None] | None = None,
+) -> dict[str, Any]:
+    """Train ``models`` (in the order q, policy, dynamics) of ``skill`` from the dataset ``data``
+    (``DIR`` of ``t2m datagen``) into the checkpoint directory ``checkpoint``.
+
+    The policy needs the Q-ensemble already in ``checkpoint`` when ``q`` is not trained with it.
+    ``overrides`` replace fields of every stage's :data:`DEFAULT_SETTINGS` (e.g. ``{"steps": 2000}``);
+    ``on_progress(model, step, total_steps, metrics)`` is called after every evaluation.
+
+    Returns:
+        model -> result (best step, best validation metrics, steps per second).
+    """
+    from t2m_core.data.generate import manifest_digest
+    from t2m_skills_tableenv.checkpoints import load_weights
+
+    settings = {model: stage.model_copy(update=overrides or {}) for model, stage in DEFAULT_SETTINGS.items()}
+    train_dir, validation_dir = Path(data) / skill / "train", Path(data) / skill / "validation"
+    train, validation = SkillTensors.load(train_dir), SkillTensors.load(validation_dir)
+    digests = {"train": manifest_digest(train_dir), "validation": manifest_digest(validation_dir)}
+    checkpoint.mkdir(parents=True, exist_ok=True)
+    results = {}
+    for model in MODELS:
+        if model not in models:
+            continue
+        stage_settings = settings[model]
+        torch.manual_seed(stage_settings.seed)
+        if model == "q":
+            stage: Stage = QStage(train, validation, stage_settings)
+        elif model == "policy":
+            q_ensemble = load_weights(checkpoint / WEIGHT_FILES["q"], QEnsemble())
+            stage = PolicyStage(train, validation, q_ensemble, stage_settings)
+        else:
+            stage = DynamicsStage(train, validation, stage_settings)
+        total = stage_settings.steps
+        report = (lambda step, record, model=model, total=total: on_progress(model, step, total, record)) if on_progress else None
+        results[model] = run_stage(stage, stage_settings, checkpoint, on_progress=report)
+        record_stage(checkpoint, skill, model, stage_settings, results[model], digests)
+    return results

@@ -1,0 +1,108 @@
+"""``t2m train`` and ``t2m calibrate``: train and calibrate a skill library's models through the entry
+points its plugin registers (:class:`t2m_core.plugin_specs.SkillLibrarySpec`)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from t2m_core.errors import T2MError
+
+SKILL_NAMES = ("pick", "place", "pull", "push")
+MODEL_NAMES = ("q", "policy", "dynamics")
+
+
+def _skills(skill: str) -> tuple[str, ...]:
+    if skill == "all":
+        return SKILL_NAMES
+    if skill not in SKILL_NAMES:
+        raise T2MError(f"unknown skill {skill!r}", f"use one of: {', '.join(SKILL_NAMES)}, all")
+    return (skill,)
+
+
+def library_entry(library: str, entry: str) -> Any:
+    from t2m_core.plugin_specs import load_callable
+    from t2m_core.registry import get_registry
+
+    spec = get_registry().get("skill_library", library)
+    target = getattr(spec, entry, None)
+    if target is None:
+        raise T2MError(f"the skill library {spec.name!r} has no {entry}", "choose a library that can be trained (see `t2m list-plugins`)")
+    return load_callable(target, f"{entry} of skill library {spec.name!r}")
+
+
+def train(
+    skill: Annotated[str, typer.Option("--skill", help="pick, place, pull, push, or all.")],
+    data: Annotated[Path, typer.Option("--data", help="Dataset directory written by `t2m datagen`.")],
+    out: Annotated[Path, typer.Option("--out", help="Checkpoints directory (one sub-directory per skill).")],
+    model: Annotated[str, typer.Option("--model", help="q, policy, dynamics, or all (in that order).")] = "all",
+    library: Annotated[str, typer.Option("--library", help="Skill library plugin.")] = "tableenv",
+    steps: Annotated[int | None, typer.Option("--steps", min=1, help="Optimiser steps per model (default: the library's).")] = None,
+    eval_every: Annotated[int | None, typer.Option("--eval-every", min=1, help="Steps between validation evaluations.")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the results as JSON on stdout.")] = False,
+) -> None:
+    """Train a skill library's models on a dataset. Rerunning the same command after a kill resumes
+    from the last evaluation."""
+    models = MODEL_NAMES if model == "all" else (model,)
+    if model != "all" and model not in MODEL_NAMES:
+        raise T2MError(f"unknown model {model!r}", f"use one of: {', '.join(MODEL_NAMES)}, all")
+    trainer = library_entry(library, "trainer")
+    overrides = {key: value for key, value in (("steps", steps), ("eval_every", eval_every)) if value is not None}
+    results = {}
+    for name in _skills(skill):
+        results[name] = _train_with_progress(trainer, name, models, data, out / name, overrides)
+    if as_json:
+        typer.echo(json.dumps(results, indent=2))
+
+
+def _train_with_progress(trainer: Any, skill: str, models: tuple[str, ...], data: Path, checkpoint: Path, overrides: dict[str, int]) -> dict[str, Any]:
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+    console = Console(stderr=True)
+    with Progress(
+        TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[metric]}"),
+        TimeElapsedColumn(), TimeRemainingColumn(), console=console,
+    ) as bar:
+        tasks = {m: bar.add_task(f"{skill} {m}", total=None, metric="") for m in models}
+
+        def update(model: str, step: int, total: int, record: dict[str, float]) -> None:
+            shown = {k: v for k, v in record.items() if k in ("loss", "precision", "recall", "q_min_mean")}
+            bar.update(tasks[model], completed=step, total=total, metric=" ".join(f"{k} {v:.4g}" for k, v in shown.items()))
+
+        result = trainer(skill, models, data, checkpoint, overrides, on_progress=update)
+    for model, outcome in result.items():
+        console.print(f"{skill} {model}: best at step {outcome['best_step']}: {outcome['best']} ({outcome['steps_per_second']} steps/s)")
+    return result
+
+
+def calibrate(
+    skill: Annotated[str, typer.Option("--skill", help="pick, place, pull, push, or all.")],
+    data: Annotated[Path, typer.Option("--data", help="Dataset directory with the validation and invalid splits.")],
+    out: Annotated[Path, typer.Option("--out", help="Checkpoints directory (one sub-directory per skill).")],
+    library: Annotated[str, typer.Option("--library", help="Skill library plugin.")] = "tableenv",
+    as_json: Annotated[bool, typer.Option("--json", help="Print the thresholds as JSON on stdout.")] = False,
+) -> None:
+    """Calibrate the OOD thresholds of trained Q-ensembles on the validation and invalid splits, store
+    them with the checkpoints and plot the variance histograms."""
+    from rich.console import Console
+
+    calibrator = library_entry(library, "calibrator")
+    results = {}
+    for name in _skills(skill):
+        results[name] = result = calibrator(name, data, out / name)
+        Console(stderr=True).print(
+            f"{name}: threshold {result['threshold']:.4g}, detects {result['detection_rate']:.1%} of invalid pairs at "
+            f"{result['false_positive_rate']:.2%} in-distribution false positives"
+        )
+    if as_json:
+        typer.echo(json.dumps(results, indent=2))
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``t2m train`` and ``t2m calibrate`` to the root app."""
+    app.command("train")(train)
+    app.command("calibrate")(calibrate)

@@ -1,0 +1,115 @@
+"""Skill-data chunks: determinism, balancing, the invalid split (docs/guide/skills.md#data-generation)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from t2m_core.data.chunks import ChunkSpec, DataGenerationError, generate_chunk
+from t2m_core.data.records import INVALID_GROUNDING, OBJECT_VOCABULARY
+from t2m_core.data.scenes import HOOK_MASS, draw_grounding, symbolic_states
+from t2m_core.domain.observation import normalize
+from tests.data.simulator_doubles import ScriptedSimulator
+
+
+def _same(a, b) -> None:
+    for name, column in a.columns().items():
+        np.testing.assert_array_equal(column, b.columns()[name], err_msg=name)
+
+
+@pytest.mark.slow
+def test_a_chunk_is_the_same_in_a_fresh_simulator_and_after_other_work() -> None:
+    from t2m_core.registry import get_registry
+
+    spec = ChunkSpec("pick", "train", 3, 6, base_seed=11)
+    first = get_registry().create("simulator", "mujoco")
+    fresh, _ = generate_chunk(spec, first)
+    busy = get_registry().create("simulator", "mujoco")
+    generate_chunk(ChunkSpec("place", "train", 0, 3, base_seed=5), busy)  # other scenes first
+    again, _ = generate_chunk(spec, busy)
+    _same(fresh, again)
+    other, _ = generate_chunk(ChunkSpec("pick", "train", 4, 6, base_seed=11), busy)
+    assert not np.array_equal(other.scene_seed, fresh.scene_seed), "chunks of a split must draw different scenes"
+
+
+def test_balancing_keeps_at_least_40_percent_successes_when_successes_are_rare() -> None:
+    simulator = ScriptedSimulator(rule=lambda action: action[0] > 0.9)  # about 5 % of uniform draws
+    transitions, stats = generate_chunk(ChunkSpec("pick", "train", 0, 20, sampler="uniform"), simulator)
+    assert len(transitions) == 20
+    assert transitions.success.sum() == 8  # ceil(0.4 * 20): failures stop being kept at 12
+    assert (transitions.action[transitions.success][:, 0] > 0.9).all()
+    assert stats.discarded_failures == simulator.executions - 20 > 0
+
+
+def test_balancing_keeps_every_success_when_they_are_common() -> None:
+    simulator = ScriptedSimulator(rule=lambda action: action[0] > -0.8)  # about 90 %
+    transitions, stats = generate_chunk(ChunkSpec("pick", "train", 0, 30, sampler="uniform"), simulator)
+    assert stats.discarded_failures == 0
+    assert transitions.success.sum() == int((transitions.action[:, 0] > -0.8).sum())
+
+
+def test_a_simulator_that_never_succeeds_stops_with_a_clear_error() -> None:
+    simulator = ScriptedSimulator(rule=lambda action: False)
+    with pytest.raises(DataGenerationError, match="draws for"):
+        generate_chunk(ChunkSpec("pick", "train", 0, 5, sampler="uniform"), simulator)
+
+
+def _independently_invalid(skill: str, facts: set[str], arguments: tuple[str, ...]) -> bool:
+    """The symbolic validity rule written out again, without the domain's code."""
+    held = [f[len("inhand(") : -1] for f in facts if f.startswith("inhand(")]
+    box = lambda name: name.endswith("_box")  # noqa: E731
+    if skill == "pick":
+        (a,) = arguments
+        supported = f"on({a}, table)" in facts or f"on({a}, rack)" in facts
+        return not (a not in ("table", "rack") and not held and supported)
+    if skill == "place":
+        a, b = arguments
+        return not (a in held and b in ("table", "rack"))
+    a, tool = arguments[:2]
+    valid = box(a) and tool == "hook" and tool in held and f"on({a}, table)" in facts
+    if skill == "push":
+        valid = valid and arguments[2] == "rack" and f"under({a}, rack)" not in facts and "beyondworkspace(rack)" in facts
+    return not valid
+
+
+@pytest.mark.parametrize("skill", ["pick", "place", "pull", "push"])
+def test_the_invalid_split_holds_symbolically_invalid_calls_with_uniform_actions(skill: str) -> None:
+    transitions, _ = generate_chunk(ChunkSpec(skill, "invalid", 0, 40))
+    states = symbolic_states()
+    for row in range(len(transitions)):
+        facts = {str(p) for p in states[transitions.symbolic_state[row]].propositions}
+        arguments = transitions.argument_names(row)
+        assert _independently_invalid(skill, facts, arguments), f"{skill}{arguments} is valid in {sorted(facts)}"
+    assert (transitions.reward == 0).all()
+    assert set(transitions.failure_names()) == {INVALID_GROUNDING}
+    np.testing.assert_array_equal(transitions.observation, transitions.next_observation)
+    assert np.abs(transitions.action).max() <= 1 and transitions.action.std() > 0.4  # uniform in [-1, 1]
+
+
+def test_rows_record_the_argument_first_order_of_the_call() -> None:
+    transitions, _ = generate_chunk(ChunkSpec("place", "invalid", 1, 10))
+    for row in range(len(transitions)):
+        names = transitions.object_names(row)
+        arguments = transitions.argument_names(row)
+        order = transitions.row_order[row]
+        for position, argument in enumerate(arguments, start=1):
+            assert order[position] == 1 + names.index(argument)
+        start, stop = transitions.shuffle_range[row]
+        assert (start, stop) == (1 + len(arguments), 1 + len(names))
+        # the argument's observation row is where the order says: its normalised x is in range
+        assert -0.5 <= normalize(transitions.observation[row, order[1]])[0] <= 0.5
+
+
+def test_valid_pick_and_place_draws_put_half_their_mass_on_the_hook() -> None:
+    rng = np.random.default_rng(0)
+    for skill in ("pick", "place"):
+        on_hook = np.mean([draw_grounding(skill, True, rng)[1].args[0] == "hook" for _ in range(2000)])
+        assert abs(on_hook - HOOK_MASS) < 0.04, (skill, on_hook)
+
+
+def test_unknown_names_are_rejected_with_the_choices() -> None:
+    with pytest.raises(DataGenerationError, match="use one of: pick, place, pull, push"):
+        ChunkSpec("wipe", "train", 0, 5)
+    with pytest.raises(DataGenerationError, match="train, validation, invalid"):
+        ChunkSpec("pick", "test", 0, 5)
+    assert "table" in OBJECT_VOCABULARY

@@ -1,0 +1,122 @@
+"""Training the skill models: losses fall, classes separate, runs resume, rows shuffle only where
+they may (docs/guide/skills.md#q-ensemble)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+import torch
+
+from t2m_skills_tableenv.dataset import SkillTensors, shuffle_rows
+from t2m_skills_tableenv.networks import QEnsemble
+from t2m_skills_tableenv.training import DynamicsStage, PolicyStage, QStage, StageSettings, q_metrics, run_stage
+
+
+def synthetic(count: int, seed: int) -> SkillTensors:
+    """Success exactly when the action's first component exceeds the state's first feature: a
+    problem whose answer the test knows."""
+    generator = torch.Generator().manual_seed(seed)
+    rows = torch.rand(count, 8, 12, generator=generator) - 0.5
+    actions = torch.rand(count, 4, generator=generator) * 2 - 1
+    rewards = (actions[:, 0] > rows[:, 0, 0] * 2).float()
+    next_rows = rows.clone()
+    next_rows[:, 1, :3] += 0.1 * actions[:, None, :3].squeeze(1)  # the moved object follows the action
+    ranges = torch.tensor([[2, 5]]).expand(count, 2)
+    return SkillTensors(rows, next_rows, ranges, actions, rewards)
+
+
+def test_the_q_ensemble_learns_a_separable_problem(tmp_path) -> None:
+    train, validation = synthetic(2048, 0), synthetic(512, 1)
+    settings = StageSettings(steps=600, batch_size=128, learning_rate=3e-3, eval_every=200)
+    stage = QStage(train, validation, settings)
+    before = q_metrics(stage.network, validation)
+    result = run_stage(stage, settings, tmp_path)
+    after = result["best"]
+    assert after["loss"] < 0.6 * before["loss"]
+    assert after["accuracy"] > 0.85 and after["precision"] > 0.8 and after["recall"] > 0.8
+    curve = [json.loads(line) for line in (tmp_path / "metrics-q.jsonl").read_text().splitlines()]
+    assert [r["step"] for r in curve] == [200, 400, 600]
+
+
+def test_the_ensemble_members_are_one_batched_module_with_independent_weights() -> None:
+    q = QEnsemble()
+    states, actions = torch.randn(5, 96), torch.randn(5, 4)
+    logits = q(states, actions)
+    assert logits.shape == (5, 8)
+    assert logits.std(dim=1).min() > 0  # different initialisations give different members
+    member = 3  # the batched module equals member 3 evaluated on its own
+    x = torch.cat((states, actions), dim=1)
+    for layer, (weight, bias) in enumerate(zip(q.weights, q.biases)):
+        x = x @ weight[member] + bias[member]
+        x = torch.relu(x) if layer < len(q.weights) - 1 else x
+    torch.testing.assert_close(x.squeeze(1), logits[:, member])
+
+
+def test_the_policy_climbs_the_frozen_q_ensemble(tmp_path) -> None:
+    train, validation = synthetic(2048, 0), synthetic(512, 1)
+    q_settings = StageSettings(steps=600, batch_size=128, learning_rate=3e-3, eval_every=600)
+    q_stage = QStage(train, validation, q_settings)
+    run_stage(q_stage, q_settings, tmp_path)
+    settings = StageSettings(steps=400, batch_size=128, learning_rate=3e-3, eval_every=100)
+    stage = PolicyStage(train, validation, q_stage.network, settings)
+    start = stage.evaluate().metrics["q_min_mean"]
+    result = run_stage(stage, settings, tmp_path)
+    assert result["best"]["q_min_mean"] > start + 0.2
+    actions = stage.network(validation.states())
+    # the learned actions succeed by the rule the data was made with
+    assert (actions[:, 0] > validation.rows[:, 0, 0] * 2).float().mean() > 0.8
+
+
+def test_dynamics_trains_on_successes_and_lowers_the_error(tmp_path) -> None:
+    train, validation = synthetic(2048, 0), synthetic(512, 1)
+    settings = StageSettings(steps=300, batch_size=256, learning_rate=1e-3, eval_every=100)
+    stage = DynamicsStage(train, validation, settings)
+    assert len(stage.train) == int(train.rewards.sum())
+    before = -stage.evaluate().score
+    result = run_stage(stage, settings, tmp_path)
+    assert result["best"]["loss"] < 0.5 * before
+
+
+def test_a_killed_run_resumes_from_its_last_evaluation(tmp_path) -> None:
+    train, validation = synthetic(512, 0), synthetic(128, 1)
+    settings = StageSettings(steps=40, batch_size=32, learning_rate=1e-3, eval_every=10)
+    whole = run_stage(QStage(train, validation, settings), settings, tmp_path / "whole")
+
+    class Killed(Exception):
+        pass
+
+    def kill_at_20(step, record):
+        if step == 20:
+            raise Killed
+
+    with pytest.raises(Killed):
+        run_stage(QStage(train, validation, settings), settings, tmp_path / "killed", on_progress=kill_at_20)
+    resumed = run_stage(QStage(train, validation, settings), settings, tmp_path / "killed")
+    assert resumed["best"] == pytest.approx(whole["best"], rel=1e-5)
+    steps = [json.loads(line)["step"] for line in (tmp_path / "killed" / "metrics-q.jsonl").read_text().splitlines()]
+    assert steps == [10, 20, 30, 40]
+
+
+def test_a_run_with_other_settings_does_not_mix_with_a_saved_state(tmp_path) -> None:
+    train, validation = synthetic(256, 0), synthetic(64, 1)
+    settings = StageSettings(steps=10, batch_size=32, learning_rate=1e-3, eval_every=10)
+    run_stage(QStage(train, validation, settings), settings, tmp_path)
+    other = settings.model_copy(update={"learning_rate": 5e-4})
+    with pytest.raises(ValueError, match="other settings"):
+        run_stage(QStage(train, validation, other), other, tmp_path)
+
+
+def test_shuffling_permutes_only_the_rows_in_each_samples_range() -> None:
+    rows = torch.arange(3 * 8, dtype=torch.float32).reshape(3, 8, 1).expand(3, 8, 12).clone()
+    ranges = torch.tensor([[2, 6], [3, 4], [1, 8]])
+    generator = torch.Generator().manual_seed(0)
+    seen_changes = 0
+    for _ in range(20):
+        shuffled = shuffle_rows(rows, ranges, generator)
+        for sample, (start, stop) in enumerate(ranges.tolist()):
+            torch.testing.assert_close(shuffled[sample, :start], rows[sample, :start])
+            torch.testing.assert_close(shuffled[sample, stop:], rows[sample, stop:])
+            assert sorted(shuffled[sample, start:stop, 0].tolist()) == rows[sample, start:stop, 0].tolist()
+            seen_changes += int(not torch.equal(shuffled[sample], rows[sample]))
+    assert seen_changes > 20
