@@ -13,11 +13,10 @@ EE orientation targets are top-down with a yaw relative to the home orientation:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from t2m_core.simulation import rules
+from t2m_core.simulation.backend import IKResult
 from t2m_core.simulation.kinematics import relative_yaw, rotation_error, rotation_z, wrist_seeds
 from t2m_core.simulation.robot import Q_HOME
 from t2m_core.simulation.rules import cap_sweep_wrench, sweep_acceleration
@@ -43,24 +42,6 @@ SOFT_DAMPING_SCALE = 0.01
 """Fraction of the joint servos' damping kept during a sweep: enough to keep the limp posture task
 stable, small next to the operational-space damping (a larger one makes the EE crawl behind its
 target and a sweep run for hundreds of ticks)."""
-
-
-@dataclass
-class IKResult:
-    """A joint solution and how far its pose is from the target (metres, radians)."""
-
-    q: np.ndarray  # (7,) rad
-    position_error: float
-    orientation_error: float
-    within_limits: bool
-
-    @property
-    def reachable(self) -> bool:
-        return (
-            self.within_limits
-            and self.position_error < rules.IK_POSITION_TOLERANCE
-            and self.orientation_error < rules.IK_ORIENTATION_TOLERANCE
-        )
 
 
 class InverseKinematics:

@@ -23,15 +23,15 @@ class CameraRenderer:
     """Renders a model's named cameras at a fixed size; created on first use (needs a GL context).
 
     Args:
-        model: the ``mujoco.MjModel``.
+        model, data: the ``mujoco.MjModel`` and the ``MjData`` to render.
         width, height: image size in pixels.
     """
 
-    def __init__(self, model, width: int, height: int) -> None:
+    def __init__(self, model, data, width: int, height: int) -> None:
         import mujoco
 
         self._mujoco = mujoco
-        self.model = model
+        self.model, self.data = model, data
         self.cameras = tuple(model.camera(i).name for i in range(model.ncam))
         try:
             self._renderer = mujoco.Renderer(model, height=height, width=width)
@@ -44,18 +44,18 @@ class CameraRenderer:
         if camera not in self.cameras:
             raise ValueError(f"unknown camera {camera!r}; cameras: {', '.join(self.cameras)}")
 
-    def rgb(self, data, camera: str) -> np.ndarray:
+    def rgb(self, camera: str) -> np.ndarray:
         """``(H, W, 3) uint8`` colour image from ``camera``."""
         self.check_camera(camera)
         self._renderer.disable_depth_rendering()
-        self._renderer.update_scene(data, camera=camera)
+        self._renderer.update_scene(self.data, camera=camera)
         return self._renderer.render().copy()
 
-    def depth(self, data, camera: str) -> np.ndarray:
+    def depth(self, camera: str) -> np.ndarray:
         """``(H, W) float32`` depth in metres along the camera axis."""
         self.check_camera(camera)
         self._renderer.enable_depth_rendering()
-        self._renderer.update_scene(data, camera=camera)
+        self._renderer.update_scene(self.data, camera=camera)
         image = self._renderer.render().astype(np.float32)
         self._renderer.disable_depth_rendering()
         return image

@@ -24,6 +24,7 @@ import numpy as np
 
 from t2m_core.simulation.robot import (
     ARM_JOINTS,
+    ARM_TORQUE_LIMITS,
     BASE_LINK,
     EE_IN_HAND,
     FINGER_BODY_CENTER,
@@ -167,7 +168,7 @@ def load_panda_spec():
     for index, name in enumerate(ARM_JOINTS):
         actuator = spec.add_actuator(name=f"{name}_servo", target=name, trntype=mj.mjtTrn.mjTRN_JOINT)
         actuator.set_to_position(kp=float(ARM_KP[index]), kv=float(ARM_KV[index]))
-        actuator.forcerange = [-300.0, 300.0] if index < 4 else [-60.0, 60.0]
+        actuator.forcerange = [-ARM_TORQUE_LIMITS[index], ARM_TORQUE_LIMITS[index]]
         actuator.forcelimited = mj.mjtLimited.mjLIMITED_TRUE
     gripper = spec.add_actuator(name="gripper", target=FINGER_JOINTS[0], trntype=mj.mjtTrn.mjTRN_JOINT)
     gripper.set_to_position(kp=GRIPPER_KP, kv=GRIPPER_KV)

@@ -16,12 +16,12 @@ import numpy as np
 
 from t2m_core.domain.state import GeometricState, ObjectPose
 from t2m_core.protocols import Contact
-from t2m_core.simulation.backend import PhysicsBackend
+from t2m_core.simulation.backend import IKResult, PhysicsBackend
 from t2m_core.simulation.kinematics import rotation_error
 from t2m_core.simulation.robot import FINGER_OPEN, Q_HOME
 from t2m_core.simulation.rules import TwistWatch
 from t2m_mujoco import contacts
-from t2m_mujoco.controller import IKResult, InverseKinematics, SweepImpedance, index_slice
+from t2m_mujoco.controller import InverseKinematics, SweepImpedance, index_slice
 from t2m_mujoco.scene import SceneModel
 
 IDENTITY_XYZW = np.array([0.0, 0.0, 0.0, 1.0])
@@ -91,6 +91,7 @@ class World(PhysicsBackend):
         self._impedance = SweepImpedance(self.model, self.data, self.robot)
         self._finger_geoms = contacts.finger_geoms(self)
         self.home_rotation = self.ik.home_rotation
+        self.object_names = scene.object_names
         self.free_names = scene.free_names
 
     # --- time -------------------------------------------------------------------------------------

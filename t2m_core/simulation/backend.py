@@ -11,25 +11,37 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterable, Mapping
-from typing import Protocol
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from t2m_core.domain.state import GeometricState, ObjectPose
 from t2m_core.protocols import Contact
+from t2m_core.simulation import rules
 from t2m_core.simulation.kinematics import rotation_z
 
 
-class IKSolution(Protocol):
-    """An IK answer: ``q`` ``(7,)`` joints in radians, and whether the pose is reachable (the solution
-    lands within :data:`~t2m_core.simulation.rules.IK_POSITION_TOLERANCE` and
-    :data:`~t2m_core.simulation.rules.IK_ORIENTATION_TOLERANCE` of the target, inside the joint limits
-    less :data:`~t2m_core.simulation.rules.JOINT_LIMIT_MARGIN`)."""
+@dataclass
+class IKResult:
+    """An IK answer: ``q`` ``(7,)`` joints in radians and how far their pose is from the target
+    (metres, radians). The pose is reachable when the solution lands within
+    :data:`~t2m_core.simulation.rules.IK_POSITION_TOLERANCE` and
+    :data:`~t2m_core.simulation.rules.IK_ORIENTATION_TOLERANCE` of it, inside the joint limits less
+    :data:`~t2m_core.simulation.rules.JOINT_LIMIT_MARGIN`."""
 
-    q: np.ndarray
+    q: np.ndarray  # (7,) rad
+    position_error: float
+    orientation_error: float
+    within_limits: bool
 
     @property
-    def reachable(self) -> bool: ...
+    def reachable(self) -> bool:
+        return (
+            self.within_limits
+            and self.position_error < rules.IK_POSITION_TOLERANCE
+            and self.orientation_error < rules.IK_ORIENTATION_TOLERANCE
+        )
 
 
 class PhysicsBackend(ABC):
@@ -39,12 +51,14 @@ class PhysicsBackend(ABC):
         ticks: 1/60 s ticks simulated since the last reset.
         held: the object welded to the hand, or ``None``.
         home_rotation: ``(3, 3)`` EE rotation at q_home (top-down, yaw 0).
+        object_names: the present objects in task order (``table`` first).
         free_names: the present objects that are not the static table, in task order.
     """
 
     ticks: int
     held: str | None
     home_rotation: np.ndarray
+    object_names: tuple[str, ...]
     free_names: tuple[str, ...]
 
     # --- time ---------------------------------------------------------------------------------------
@@ -52,6 +66,15 @@ class PhysicsBackend(ABC):
     @abstractmethod
     def tick(self, count: int = 1) -> None:
         """Advance ``count`` ticks of 1/60 s with the current servo targets and compliance."""
+
+    @abstractmethod
+    def snapshot(self) -> Any:
+        """An exact, opaque copy of the physics and the controller (servo targets, weld, ticks)."""
+
+    @abstractmethod
+    def restore(self, snapshot: Any) -> None:
+        """Restore a :meth:`snapshot` of this scene exactly; ``TypeError`` / ``ValueError`` for a
+        snapshot of another kind or scene."""
 
     @abstractmethod
     def canonicalize(self) -> None:
@@ -86,7 +109,7 @@ class PhysicsBackend(ABC):
         """Radians between the EE orientation and ``rotation`` (3, 3)."""
 
     @abstractmethod
-    def solve_ik(self, position: np.ndarray, rotation: np.ndarray, seed: np.ndarray, null_target: np.ndarray) -> IKSolution:
+    def solve_ik(self, position: np.ndarray, rotation: np.ndarray, seed: np.ndarray, null_target: np.ndarray) -> IKResult:
         """Joints that put the EE at ``position`` (3,) m with ``rotation`` (3, 3), starting from ``seed``
         (7,) rad, the posture pulled toward ``null_target`` (7,) rad. Never moves the simulated arm."""
 
@@ -176,3 +199,6 @@ class PhysicsBackend(ABC):
     @abstractmethod
     def objects_touch_base(self) -> bool:
         """Whether any object touches the robot's base link."""
+
+    def close(self) -> None:
+        """Release native resources (engine clients)."""

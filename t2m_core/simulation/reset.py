@@ -17,7 +17,8 @@ from typing import Any
 from t2m_core.domain.geometry import is_above, object_geometry
 from t2m_core.domain.objects import ObjectKind, object_spec
 from t2m_core.domain.observation import encode_observation
-from t2m_core.domain.predicates import Proposition, canonical_order, holds_all
+from t2m_core.domain.predicates import holds_all
+from t2m_core.domain.propositions import Proposition, canonical_order
 from t2m_core.domain.primitives import MotionKind, MotionStep
 from t2m_core.domain.sampling import SampledScene, SamplingError, sample_initial_state
 from t2m_core.protocols import ResetResult

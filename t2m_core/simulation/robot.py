@@ -46,6 +46,8 @@ FINGER_BODY_CENTER = (0.0, 0.0172, 0.027)
 """Centre (m) of that box in the left finger's frame (the right finger's is mirrored in y)."""
 PAD_FRICTION = 1.0
 
+ARM_TORQUE_LIMITS = (300.0, 300.0, 300.0, 300.0, 60.0, 60.0, 60.0)
+"""(7,) N·m the joint servos may apply."""
 GRIPPER_KP, GRIPPER_KV = 400.0, 40.0
 """Finger servo gains, N/m and N·s/m (the reference's gripper gains)."""
 GRIPPER_FORCE = 70.0

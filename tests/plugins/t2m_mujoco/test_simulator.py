@@ -1,11 +1,13 @@
+"""MuJoCo-specific simulator behaviour; what every backend must do is in tests/simulators/."""
+
 import numpy as np
 import pytest
 
 from t2m_core.domain.primitives import get_primitive
 from t2m_core.tasks import load_task
-from t2m_core.testing import check_simulator
 from t2m_mujoco.options import MujocoOptions
 from t2m_mujoco.simulator import MujocoSimulator
+from tests.simulators.backends import sweep_into_rack
 
 
 @pytest.fixture(scope="module")
@@ -13,139 +15,6 @@ def sim():
     simulator = MujocoSimulator(MujocoOptions(render_width=160, render_height=120))
     yield simulator
     simulator.close()
-
-
-@pytest.mark.slow
-def test_conformance():
-    report = check_simulator(MujocoSimulator, task_ids=("task0", "task3"), seeds=(0,))
-    assert report["executions"] == 4
-
-
-def test_reset_is_deterministic_and_verified(sim):
-    task = load_task("task0")
-    first = sim.reset(task, seed=3)
-    second = sim.reset(task, seed=3)
-    assert first.accepted_seed == second.accepted_seed >= 3
-    np.testing.assert_array_equal(first.observation, second.observation)
-    assert sim.reset_stats["physics_rejections"] + sim.reset_stats["sampler_rejections"] == first.rejections
-    assert first.observation.shape == (8, 12) and first.observation.dtype == np.float32
-
-
-def test_pick_and_place_heuristic(sim):
-    task = load_task("task0")
-    sim.reset(task, seed=0)
-    rng = np.random.default_rng(0)
-    state = sim.geometric_state()
-    pick = sim.execute("pick", ["yellow_box"], get_primitive("pick").heuristic_action(state, ["yellow_box"], rng))
-    assert pick.success, pick.failure
-    assert pick.state.held == "yellow_box"
-    assert pick.state.objects["yellow_box"].position[2] > 0.3
-    place_action = get_primitive("place").heuristic_action(pick.state, ["yellow_box", "rack"], rng)
-    place_action[:2] = 0.0  # the centre of the rack top
-    place = sim.execute("place", ["yellow_box", "rack"], place_action)
-    assert place.success, place.failure
-    assert place.state.held is None
-    assert 0.16 < place.state.objects["yellow_box"].position[2] < 0.21
-
-
-def test_snapshot_round_trip_is_exact(sim):
-    sim.reset(load_task("task0"), seed=1)
-    snapshot = sim.get_state()
-    before = sim.observation()
-    action = np.zeros(4)
-    first = sim.execute("pick", ["blue_box"], action)
-    sim.set_state(snapshot)
-    np.testing.assert_array_equal(sim.observation(), before)
-    second = sim.execute("pick", ["blue_box"], action)
-    assert (first.success, first.failure) == (second.success, second.failure)
-    np.testing.assert_array_equal(first.observation, second.observation)
-
-
-def test_pick_outside_workspace_fails_without_motion(sim):
-    sim.reset(load_task("task3"), seed=0)
-    start = sim.geometric_state()
-    result = sim.execute("pick", ["blue_box"], np.zeros(4))  # blue_box is beyond the workspace
-    assert not result.success and result.failure == "not_in_workspace" and result.truncated
-    np.testing.assert_allclose(result.state.ee_position, start.ee_position, atol=1e-6)
-
-
-def test_bad_input_is_rejected(sim):
-    sim.reset(load_task("task0"), seed=0)
-    with pytest.raises(ValueError, match="shape"):
-        sim.execute("pick", ["yellow_box"], np.zeros(3))
-    with pytest.raises(ValueError, match=r"\[-1, 1\]"):
-        sim.execute("pick", ["yellow_box"], np.full(4, 2.0))
-    with pytest.raises(KeyError, match="known primitives"):
-        sim.execute("jump", ["yellow_box"], np.zeros(4))
-    with pytest.raises(ValueError, match="not in the scene"):
-        sim.execute("pick", ["red_box"], np.zeros(4))
-
-
-def test_render_rgb_and_depth(sim):
-    sim.reset(load_task("task0"), seed=0)
-    rgb = sim.render("front")
-    assert rgb.shape == (120, 160, 3) and rgb.dtype == np.uint8 and rgb.std() > 10
-    depth = sim.render("top", depth=True)
-    assert depth.shape == (120, 160) and depth.dtype == np.float32
-    # the top camera is 1.6 m above the table top: the centre pixel sees the table (or an object on it)
-    assert 1.3 < depth[60, 80] <= 1.6 + 1e-3
-    with pytest.raises(ValueError, match="unknown camera"):
-        sim.render("nowhere")
-
-
-def test_colours_are_legible(sim):
-    """The boxes' colours are those of their names, and visible from the default camera."""
-    sim.reset(load_task("task2"), seed=0)
-    image = sim.render("top").astype(int)
-    # a pixel is "red" when its red channel exceeds both others by a wide margin (lighting shades it)
-    red = image[..., 0] - np.maximum(image[..., 1], image[..., 2]) > 80
-    blue = image[..., 2] - np.maximum(image[..., 0], image[..., 1]) > 80
-    assert red.sum() > 5 and blue.sum() > 5
-
-
-def test_grasp_validity(sim):
-    """The grasp test (docs/guide/world.md#grasping): closing on air fails; a square grasp holds and welds the box."""
-    sim.reset(load_task("task0"), seed=0)
-    snapshot = sim.get_state()
-    pick = get_primitive("pick")
-    on_air = pick.to_normalized(np.array([0.0, 0.1, 0.0, 0.0]))  # 0.1 m beside the box
-    result = sim.execute("pick", ["yellow_box"], on_air)
-    assert result.failure == "grasp_failed" and result.state.held is None
-    sim.set_state(snapshot)
-    square = sim.execute("pick", ["yellow_box"], pick.to_normalized(np.zeros(4)))
-    assert square.success and square.state.held == "yellow_box"
-
-
-def test_record_video_returns_frames():
-    recorder = MujocoSimulator(MujocoOptions(render_width=64, render_height=48, record_video=True, video_fps=10))
-    try:
-        recorder.reset(load_task("task0"), seed=0)
-        state = recorder.geometric_state()
-        result = recorder.execute("pick", ["yellow_box"], get_primitive("pick").heuristic_action(state, ["yellow_box"], np.random.default_rng(0)))
-        # one frame every 6 ticks of a pick that lasts over 100 ticks
-        assert len(result.frames) > 15
-        assert result.frames[0].shape == (48, 64, 3) and result.frames[0].dtype == np.uint8
-    finally:
-        recorder.close()
-
-
-def test_free_compliant_sweep_converges_soon_after_its_ramp(sim):
-    """The operational-space sweep (soft gains, unit-mass EE) tracks a 0.2 m line and converges
-    within about a second of the 30-tick ramp; a joint-inertia-weighted impedance crawled for
-    hundreds of ticks."""
-    from t2m_core.domain.primitives import MotionKind, MotionStep
-
-    sim.reset(load_task("task0"), seed=0)
-    world, executor = sim.world, sim.executor
-    executor.begin_primitive()
-    assert executor.run(MotionStep(MotionKind.MOVE, "start", np.array([0.45, 0.0, 0.25]), 0.0)).failure is None
-    goal = np.array([0.60, 0.12, 0.25])
-    start_ticks = world.ticks
-    report = executor.run(MotionStep(MotionKind.SWEEP, "sweep", goal, 0.0, soft=True))
-    assert report.failure is None
-    assert world.ticks - start_ticks < 90
-    position, _ = world.ee_pose()
-    assert np.linalg.norm(position - goal) < 0.01
 
 
 def test_held_object_moves_only_with_the_hand(sim):
@@ -168,35 +37,11 @@ def test_held_object_moves_only_with_the_hand(sim):
     assert world.moving_objects() == ["yellow_box"]
 
 
-def _sweep_into_rack(sim) -> tuple[int, str | None, float]:
-    """Sweep the open fingers (soft gains) into the edge of task0's rack top plate, seed 0 (rack at
-    (0.435, −0.339), long side along x); returns (ticks, failure, metres the rack moved)."""
-    from t2m_core.domain.primitives import MotionKind, MotionStep
-
-    sim.reset(load_task("task0"), seed=0)
-    world, executor = sim.world, sim.executor
-    executor.begin_primitive()
-    assert executor.run(MotionStep(MotionKind.MOVE, "start", np.array([0.435, -0.14, 0.14]), 0.0)).failure is None
-    rack_before = world.object_pose("rack").position
-    start_ticks = world.ticks
-    report = executor.run(MotionStep(MotionKind.SWEEP, "into_rack", np.array([0.435, -0.34, 0.14]), 0.0, soft=True))
-    return world.ticks - start_ticks, report.failure, float(np.linalg.norm(world.object_pose("rack").position - rack_before))
-
-
-def test_blocked_compliant_sweep_stalls(sim):
-    """A sweep pressing the 1 kg rack (friction 1.0) with at most 6 N stalls and ends without a
-    failure; MuJoCo's soft friction lets the pressed rack creep at a few mm/s, which the
-    reference's 0.001 m/s never caught (the sweep ran into the 10 s timeout)."""
-    ticks, failure, rack_moved = _sweep_into_rack(sim)
-    assert failure is None
-    assert ticks < 150
-    assert rack_moved < 0.07  # the impact shifts it ~5 cm; it is not shoved on (12 cm in 10 s)
-
-
 def test_blocked_sweep_under_the_reference_threshold_creeps(sim, monkeypatch):
-    """The counter-check of the test above: with the reference's 0.001 m/s the same blocked sweep creeps on."""
+    """The counter-check of tests/simulators' blocked-sweep test: MuJoCo's soft friction lets the
+    pressed rack creep at a few mm/s, so with the reference's 0.001 m/s the blocked sweep creeps on."""
     from t2m_core.simulation import rules
 
     monkeypatch.setattr(rules, "STALLED_SWEEP_SPEED", rules.STALLED_SPEED)
-    ticks, _failure, _moved = _sweep_into_rack(sim)
+    ticks, _failure, _moved = sweep_into_rack(sim)
     assert ticks > 300
