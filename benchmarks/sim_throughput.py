@@ -1,29 +1,29 @@
 """Primitive executions per CPU-second, per primitive, with heuristic actions, and the ratio of their
-cost to raw ``mj_step`` replaying the same physics.
+cost to the raw engine step replaying the same physics, for one or several backends in one run.
 
-    python benchmarks/sim_throughput.py --sim mujoco --json OUT [--samples 40] [--only pull,push] [--set substeps=8]
+    python benchmarks/sim_throughput.py --sim mujoco,pybullet --json OUT [--samples 40] [--only pull,push]
+        [--set substeps=8]
 
-Each sample resets a task scene, brings it to the primitive's precondition (pick: nothing; place,
-pull, push: the object or hook picked first, not timed) and takes a snapshot. Then:
+For each backend, each sample resets a task scene, brings it to the primitive's precondition (pick:
+nothing; place, pull, push: the object or hook picked first, not timed) and takes a snapshot. Then:
 
 1. **Timed execution.** One heuristic execution from the snapshot, timed with ``time.process_time``
    (CPU seconds of this process: the figure to judge, since the machine is shared) and
    ``time.perf_counter`` (wall seconds, also reported but distorted by other jobs).
-2. **Recorded execution.** The snapshot is restored and the same execution runs again while every
-   tick's physics inputs are recorded: the actuator targets (``ctrl``), the applied joint forces
-   (``qfrc_applied``, the sweep impedance), the weld activations, and the model parameters the
-   controller changes (servo gains during a sweep, the held object's gravity compensation, the weld
-   pose). The simulator is deterministic, so both runs follow the same trajectory (checked).
+2. **Recorded execution.** The snapshot is restored and the same execution runs again while its
+   physics inputs are recorded (raw_step_replay.py: MuJoCo's per-tick ``ctrl``, applied forces,
+   weld activations and changed model parameters; PyBullet's motor commands, weld constraint calls and
+   ``stepSimulation``). The simulators are deterministic, so both runs follow the same trajectory (checked).
 3. **Raw reference.** The snapshot is restored once more and the recorded inputs are replayed with
-   nothing but assignments and ``mj_step(model, data, nstep=substeps)`` per tick, timed the same
-   way. The replay must reproduce the execution's final ``qpos`` bit for bit (``replay_exact``), so
-   the reference simulates exactly the contacts, wake-ups and solver work of the primitive, not a
-   scene that may have fallen asleep.
+   the bare engine step (``mj_step(model, data, nstep=substeps)`` per tick; the recorded PyBullet
+   calls alone), timed the same way. The replay must reproduce the execution's final positions bit
+   for bit (``replay_exact``), so the reference simulates exactly the contacts, wake-ups and solver
+   work of the primitive.
 
-The JSON holds, per primitive: ``executions_per_cpu_second``, ``executions_per_second`` (wall),
-``raw_executions_per_cpu_second`` (the bound mj_step alone allows), ``ratio_to_raw_mj_step`` (CPU),
-``ratio_to_raw_mj_step_wall``, ``mean_ticks``, ``heuristic_success_rate``, ``failures`` and
-``replay_exact``.
+The JSON holds, per backend and primitive: ``executions_per_cpu_second``, ``executions_per_second``
+(wall), ``raw_executions_per_cpu_second`` (the bound the engine step alone allows),
+``ratio_to_raw_step`` (CPU), ``ratio_to_raw_step_wall``, ``mean_ticks``, ``heuristic_success_rate``,
+``failures`` and ``replay_exact``.
 """
 
 from __future__ import annotations
@@ -129,84 +129,29 @@ def prepare(sim, setup, rng) -> bool:
     return True
 
 
-class TickRecorder:
-    """Records the physics inputs of every tick a :class:`~t2m_mujoco.world.World` simulates, by
-    wrapping its ``tick`` method for the duration of a ``with`` block."""
-
-    MODEL_FIELDS = ("actuator_gainprm", "actuator_biasprm", "body_gravcomp", "eq_data")
-    """Model parameters the controller changes at run time (servo gains, held load, weld pose)."""
-
-    def __init__(self, world) -> None:
-        self.world = world
-        self.ticks: list[tuple] = []
-
-    def __enter__(self) -> TickRecorder:
-        world = self.world
-        original = world.tick
-
-        def recording_tick(count: int = 1) -> None:
-            data, model = world.data, world.model
-            inputs = (data.ctrl.copy(), data.qfrc_applied.copy(), data.eq_active.copy(),
-                      tuple(getattr(model, name).copy() for name in self.MODEL_FIELDS))
-            self.ticks.extend([inputs] * count)
-            original(count)
-
-        world.tick = recording_tick
-        return self
-
-    def __exit__(self, *exc) -> None:
-        del self.world.tick  # back to the class's method
-
-    def replay(self) -> tuple[float, float, np.ndarray]:
-        """Step the recorded inputs with bare ``mj_step`` from the world's current state; returns
-        ``(CPU seconds, wall seconds, final qpos)``. Model parameters are assigned only when they
-        change, so the loop is the physics and little else."""
-        import mujoco
-
-        world = self.world
-        model, data, substeps = world.model, world.data, world.substeps
-        saved = tuple(getattr(model, name).copy() for name in self.MODEL_FIELDS)
-        plan, previous = [], None
-        for ctrl, force, active, parameters in self.ticks:
-            changed = None if previous is not None and all(np.array_equal(a, b) for a, b in zip(parameters, previous, strict=True)) else parameters
-            plan.append((ctrl, force, active, changed))
-            previous = parameters
-        cpu, wall = time.process_time(), time.perf_counter()
-        for ctrl, force, active, changed in plan:
-            data.ctrl[:] = ctrl
-            data.qfrc_applied[:] = force
-            data.eq_active[:] = active
-            if changed is not None:
-                for name, value in zip(self.MODEL_FIELDS, changed, strict=True):
-                    getattr(model, name)[:] = value
-            mujoco.mj_step(model, data, nstep=substeps)
-        cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
-        for name, value in zip(self.MODEL_FIELDS, saved, strict=True):
-            getattr(model, name)[:] = value
-        return cpu, wall, data.qpos.copy()
-
-
 def measure(sim, primitive: str, arguments, action) -> dict:
-    """Time one execution from the current state, then its raw ``mj_step`` replay (module docstring)."""
+    """Time one execution from the current state, then its raw engine-step replay (module docstring)."""
+    from raw_step_replay import final_state, recorder_for
+
     world = sim.world
     snapshot = world.snapshot()
     cpu, wall, start_ticks = time.process_time(), time.perf_counter(), world.ticks
     result = sim.execute(primitive, arguments, action)
     cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
     ticks = world.ticks - start_ticks
-    final_qpos = world.data.qpos.copy()
+    executed = final_state(world)
 
     world.restore(snapshot)
-    with TickRecorder(world) as recorder:
+    with recorder_for(world) as recorder:
         again = sim.execute(primitive, arguments, action)
-    if again.failure != result.failure or not np.array_equal(world.data.qpos, final_qpos):
+    if again.failure != result.failure or not np.array_equal(final_state(world), executed):
         raise RuntimeError(f"{primitive}: a repeated execution from the same snapshot diverged (determinism broken)")
     world.restore(snapshot)
-    raw_cpu, raw_wall, replayed_qpos = recorder.replay()
+    raw_cpu, raw_wall, replayed = recorder.replay()
     world.restore(snapshot)
     return {
         "cpu": cpu, "wall": wall, "raw_cpu": raw_cpu, "raw_wall": raw_wall, "ticks": ticks,
-        "success": result.success, "failure": result.failure, "exact": bool(np.array_equal(replayed_qpos, final_qpos)),
+        "success": result.success, "failure": result.failure, "exact": bool(np.array_equal(replayed, executed)),
     }
 
 
@@ -225,8 +170,8 @@ def summarise(samples: list[dict]) -> dict:
         "executions_per_cpu_second": per(total["cpu"]),
         "executions_per_second": per(total["wall"]),
         "raw_executions_per_cpu_second": per(total["raw_cpu"]),
-        "ratio_to_raw_mj_step": total["cpu"] / total["raw_cpu"] if total["raw_cpu"] else None,
-        "ratio_to_raw_mj_step_wall": total["wall"] / total["raw_wall"] if total["raw_wall"] else None,
+        "ratio_to_raw_step": total["cpu"] / total["raw_cpu"] if total["raw_cpu"] else None,
+        "ratio_to_raw_step_wall": total["wall"] / total["raw_wall"] if total["raw_wall"] else None,
         "mean_ticks": total["ticks"] / max(count, 1),
         "heuristic_success_rate": sum(sample["success"] for sample in samples) / max(count, 1),
         "failures": dict(Counter(str(sample["failure"]) for sample in samples)),
@@ -234,14 +179,45 @@ def summarise(samples: list[dict]) -> dict:
     }
 
 
+def measure_backend(name: str, options: dict, samples: int, only: set[str]) -> dict:
+    """Every case on backend ``name``: figures per primitive (printed as they come)."""
+    from rich.progress import track
+
+    from t2m_core.cli.sim_cmd import resolve_simulator
+    from t2m_core.domain.primitives import get_primitive
+
+    sim = resolve_simulator(name, options)
+    results = {}
+    try:
+        for case, (task_id, keep, setup, (primitive, arguments)) in CASES.items():
+            if only and case not in only:
+                continue
+            task = case_scene(task_id, keep)
+            rng = np.random.default_rng(0)
+            measured = []
+            for _reset in track(distinct_scenes(sim, task, samples), total=samples, description=f"{name} {case:5s}", transient=True):
+                if not prepare(sim, setup, rng):
+                    continue
+                action = get_primitive(primitive).heuristic_action(sim.geometric_state(), arguments, rng)
+                measured.append(measure(sim, primitive, arguments, action))
+            results[case] = figures = summarise(measured)
+            print(f"{name:8s} {case:5s} {figures['executions_per_cpu_second']:6.1f} exec/CPU-s  {figures['executions_per_second']:6.1f} exec/s wall  "
+                  f"{figures['mean_ticks']:5.0f} ticks  raw step {figures['raw_executions_per_cpu_second']:6.1f}/CPU-s  "
+                  f"ratio {figures['ratio_to_raw_step']:.2f} (wall {figures['ratio_to_raw_step_wall']:.2f})  "
+                  f"replay exact {figures['replay_exact']:.0%}  success {figures['heuristic_success_rate']:.0%}  (n={figures['samples']})", flush=True)
+        return {"options": sim.options.model_dump(), "primitives": results}
+    finally:
+        sim.close()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--sim", default="mujoco")
+    parser.add_argument("--sim", default="mujoco,pybullet", help="comma-separated simulator plugins, measured in turn")
     parser.add_argument("--json", dest="json_out", required=True)
     parser.add_argument("--samples", type=int, default=40)
     parser.add_argument("--only", default="", help="comma-separated primitives (default: all)")
     parser.add_argument("--set", dest="options", action="append", default=[], metavar="OPTION=VALUE",
-                        help="simulator option, e.g. substeps=8 (repeatable; default: the plugin's defaults)")
+                        help="simulator option for every backend, e.g. substeps=8 (repeatable; default: the plugins' defaults)")
     args = parser.parse_args()
     options = {}
     for item in args.options:
@@ -250,37 +226,11 @@ def main() -> None:
             parser.error(f"--set {item!r}: expected OPTION=VALUE, e.g. substeps=8")
         options[key] = value
 
-    from rich.progress import track
-
-    from t2m_core.cli.sim_cmd import resolve_simulator
-    from t2m_core.domain.primitives import get_primitive
-
-    sim = resolve_simulator(args.sim, options)
-    if not hasattr(sim, "world"):
-        parser.error(f"--sim {args.sim}: the raw mj_step reference needs a MuJoCo simulator (one with a .world)")
     only = set(filter(None, args.only.split(",")))
-    results = {}
-    for name, (task_id, keep, setup, (primitive, arguments)) in CASES.items():
-        if only and name not in only:
-            continue
-        task = case_scene(task_id, keep)
-        rng = np.random.default_rng(0)
-        samples = []
-        for _reset in track(distinct_scenes(sim, task, args.samples), total=args.samples, description=f"{name:5s}", transient=True):
-            if not prepare(sim, setup, rng):
-                continue
-            action = get_primitive(primitive).heuristic_action(sim.geometric_state(), arguments, rng)
-            samples.append(measure(sim, primitive, arguments, action))
-        results[name] = figures = summarise(samples)
-        print(f"{name:5s} {figures['executions_per_cpu_second']:6.1f} exec/CPU-s  {figures['executions_per_second']:6.1f} exec/s wall  "
-              f"{figures['mean_ticks']:5.0f} ticks  raw mj_step {figures['raw_executions_per_cpu_second']:6.1f}/CPU-s  "
-              f"ratio {figures['ratio_to_raw_mj_step']:.2f} (wall {figures['ratio_to_raw_mj_step_wall']:.2f})  "
-              f"replay exact {figures['replay_exact']:.0%}  (n={figures['samples']})")
+    report = {name: measure_backend(name, options, args.samples, only) for name in args.sim.split(",")}
     write_json_atomic(args.json_out, {
-        "simulator": args.sim,
-        "options": sim.options.model_dump() if hasattr(sim, "options") else options,
-        "method": "CPU: time.process_time; raw: bare mj_step replay of the recorded per-tick inputs",
-        "primitives": results,
+        "method": "CPU: time.process_time; raw: the recorded physics inputs replayed with the bare engine step",
+        "simulators": report,
     })
 
 
