@@ -171,7 +171,10 @@ class PlanResult:
         states: ``(T + 1, 8, 12) float32`` the given state and the predicted ones.
         values: ``(T,) float32`` per-step ``clip(min_i Q_i, 0, 1)``.
         ood: ``(T,) bool`` per-step out-of-distribution flags.
-        p_success: product of the (OOD-masked) values.
+        p_success: product of the OOD-masked values, Π_t v_t·(1 − ood_t).
+        variances: ``(T,) float32`` population variance of the ensemble members per step (what the
+            OOD flags threshold), or ``None``.
+        q_members: ``(T, B) float32`` every member's success probability per step, or ``None``.
     """
 
     actions: np.ndarray
@@ -179,6 +182,8 @@ class PlanResult:
     values: np.ndarray
     ood: np.ndarray
     p_success: float
+    variances: np.ndarray | None = None
+    q_members: np.ndarray | None = None
 
 
 @runtime_checkable

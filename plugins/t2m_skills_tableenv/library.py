@@ -96,4 +96,4 @@ def load_library(options: TableEnvSkillsOptions | None = None) -> dict[str, Tabl
         CheckpointError: a skill's checkpoint is missing or broken.
     """
     options = options or TableEnvSkillsOptions()
-    return {name: TableEnvSkill.load(Path(options.checkpoints) / name) for name in DATA_SKILLS}
+    return {name: TableEnvSkill.load(options.checkpoint_directory / name) for name in DATA_SKILLS}

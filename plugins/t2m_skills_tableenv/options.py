@@ -15,8 +15,13 @@ class TableEnvSkillsOptions(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    checkpoints: Path = Field(
-        SHIPPED_CHECKPOINTS,
+    checkpoints: Path | None = Field(
+        None,
         description="directory with one checkpoint directory per skill (pick/, place/, pull/, push/); "
-        "default: the checkpoints shipped with t2m",
+        "null: the checkpoints shipped with t2m",
     )
+
+    @property
+    def checkpoint_directory(self) -> Path:
+        """The directory to load: ``checkpoints`` or the shipped one."""
+        return self.checkpoints if self.checkpoints is not None else SHIPPED_CHECKPOINTS

@@ -8,6 +8,8 @@ from typing import Annotated
 
 import typer
 
+from t2m_core.errors import T2MError
+
 
 def report(
     episodes: Annotated[int, typer.Option("--episodes", min=0, help="Simulated policy episodes per skill (0: none).")] = 20,
@@ -27,7 +29,10 @@ def report(
 
     reporter = library_entry(library, "reporter")
     spec = get_registry().get("skill_library", library)
-    checkpoints = checkpoints or Path(spec.options().checkpoints)
+    if checkpoints is None:  # the library's own default location
+        checkpoints = getattr(spec.options(), "checkpoint_directory", None)
+    if checkpoints is None:
+        raise T2MError(f"the skill library {spec.name!r} has no default checkpoints", "pass --checkpoints DIR")
     simulator = get_registry().create("simulator", sim) if episodes > 0 else None
     console = Console(stderr=True)
     try:

@@ -7,8 +7,8 @@ A run is one YAML document::
     simulator: {name: mujoco, options: {}}
     language_model: {name: local, options: {}}
     scene_parser: {name: ground-truth, options: {}}
-    skills: null               # no builtin yet: a later issue adds the learned TableEnv library
-    feasibility_planner: null  # no builtin yet: a later issue adds policy-cem
+    skills: {name: tableenv, options: {}}
+    feasibility_planner: {name: policy-cem, options: {}}
     task_planner: null         # no builtin yet: a later issue adds hybrid (Text2Motion)
     run: {closed_loop: true}
     output: {video: true, video_fps: 30}
@@ -75,10 +75,12 @@ class RunConfig(BaseModel):
         description="Turns the observation into the geometric state.",
     )
     skills: ComponentConfig | None = Field(
-        None, description="Skill library. Default null: no builtin library is registered yet."
+        default_factory=lambda: ComponentConfig(name="tableenv"),
+        description="Skill library: the learned TableEnv skills with their shipped checkpoints by default.",
     )
     feasibility_planner: ComponentConfig | None = Field(
-        None, description="Feasibility planner. Default null: no builtin planner is registered yet."
+        default_factory=lambda: ComponentConfig(name="policy-cem"),
+        description="Feasibility planner: STAP PolicyCEM by default.",
     )
     task_planner: ComponentConfig | None = Field(
         None, description="Task planner. Default null: no builtin planner is registered yet."

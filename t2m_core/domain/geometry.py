@@ -73,6 +73,9 @@ def quat_conjugate(q: np.ndarray) -> np.ndarray:
 
 def quat_to_matrix(q: np.ndarray) -> np.ndarray:
     """``(..., 4)`` xyzw quaternions → ``(..., 3, 3)`` rotation matrices (normalised first)."""
+    q = np.asarray(q, dtype=np.float64)
+    if q.shape == (4,):
+        return _single_quat_to_matrix(q)
     x, y, z, w = np.moveaxis(quat_normalize(q), -1, 0)
     return np.stack(
         (
@@ -81,6 +84,23 @@ def quat_to_matrix(q: np.ndarray) -> np.ndarray:
             np.stack((2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)), axis=-1),
         ),
         axis=-2,
+    )
+
+
+def _single_quat_to_matrix(q: np.ndarray) -> np.ndarray:
+    """:func:`quat_to_matrix` of one ``(4,)`` quaternion in scalar arithmetic: the analytic
+    feasibility screens call it hundreds of thousands of times, where array overhead dominated."""
+    x, y, z, w = q.tolist()
+    norm = math.sqrt(x * x + y * y + z * z + w * w)
+    if norm < 1e-12:
+        raise ValueError("cannot normalise a zero quaternion")
+    x, y, z, w = x / norm, y / norm, z / norm, w / norm
+    return np.array(
+        (
+            (1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)),
+            (2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)),
+            (2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)),
+        )
     )
 
 

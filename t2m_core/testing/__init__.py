@@ -22,6 +22,7 @@ _LAZY: dict[str, str] = {
     "check_simulator": "t2m_core.testing.simulator",
     "check_language_model": "t2m_core.testing.language_model",
     "check_skill": "t2m_core.testing.skill",
+    "check_feasibility_planner": "t2m_core.testing.feasibility",
     "sample_skill_states": "t2m_core.testing.skill",
     "check_scene_parser": "t2m_core.testing.scene_parser",
     "sample_observation": "t2m_core.testing.scene_parser",
@@ -36,6 +37,7 @@ _LAZY: dict[str, str] = {
 __all__ = [
     "HEAVY_MODULES",
     "FakeDistribution",
+    "check_feasibility_planner",
     "check_import_light",
     "check_language_model",
     "check_plugin_module",

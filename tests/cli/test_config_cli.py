@@ -15,7 +15,10 @@ from tests.core.plugin_doubles import EveryKind
 
 runner = CliRunner()
 
-TOY_SELECTION = ["--sim", "toysim", "--llm", "toy-llm", "--set", "scene_parser.name=toy-parser"]
+TOY_SELECTION = [
+    "--sim", "toysim", "--llm", "toy-llm", "--set", "scene_parser.name=toy-parser",
+    "--set", "skills.name=toy-skills", "--set", "feasibility_planner.name=toy-cem",
+]
 
 
 @pytest.fixture(autouse=True)
@@ -33,7 +36,7 @@ def test_show_resolves_files_flags_and_overrides(tmp_path: Path) -> None:
     shown = yaml.safe_load(result.stdout)
     assert (shown["task"], shown["seed"]) == ("task2", 5)
     assert shown["simulator"] == {"name": "toysim", "options": {"timestep": 0.002, "substeps": 2}}
-    assert shown["skills"] is None
+    assert shown["skills"] == {"name": "toy-skills", "options": {}}
     as_json = runner.invoke(
         app, ["config", "show", "--config", str(config), *TOY_SELECTION, "--seed", "4", "--set", "seed=5", "--json"]
     )

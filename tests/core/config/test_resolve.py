@@ -27,7 +27,8 @@ def test_defaults_select_the_builtin_components() -> None:
         "local",
         "ground-truth",
     )
-    assert config.skills is None and config.feasibility_planner is None and config.task_planner is None
+    assert (config.skills.name, config.feasibility_planner.name) == ("tableenv", "policy-cem")
+    assert config.task_planner is None
     assert config.run.closed_loop is True and config.output.video_fps == 30
 
 
@@ -111,11 +112,11 @@ def test_unknown_keys_are_rejected_with_path_and_source(tmp_path: Path) -> None:
 
 
 def test_wrong_types_and_missing_names_are_reported(tmp_path: Path) -> None:
-    path = write(tmp_path, "bad.yaml", "seed: many\nskills: {options: {}}\nscene_parser: {options: {}}\n")
+    path = write(tmp_path, "bad.yaml", "seed: many\ntask_planner: {options: {}}\nscene_parser: {options: {}}\n")
     _, issues = check_config([path])
     assert {str(issue) for issue in issues} == {
         f"seed: Input should be a valid integer, unable to parse string as an integer (from {path})",
-        f"skills.name: required key is missing (from {path})",  # scene_parser keeps its default name
+        f"task_planner.name: required key is missing (from {path})",  # scene_parser keeps its default name
     }
 
 
@@ -149,6 +150,8 @@ def toy_components(*extra: str) -> list[str]:
         "simulator.name=toysim",
         "language_model.name=gpt-toy",
         "scene_parser.name=toy-parser",
+        "skills.name=toy-skills",
+        "feasibility_planner.name=toy-cem",
         *extra,
     ]
 
@@ -179,7 +182,8 @@ def test_null_blocks_are_not_looked_up(toy_registry: Registry) -> None:
     registry = Registry()
     registry.register_plugin(plugin(t2m_register_simulators=[toy_simulator_spec()]))
     _, issues = check_config(overrides=["simulator.name=toysim"], registry=registry)
-    assert {issue.path for issue in issues} == {"language_model.name", "scene_parser.name"}
+    # task_planner is null: not looked up; the others name components this registry lacks
+    assert {issue.path for issue in issues} == {"language_model.name", "scene_parser.name", "skills.name", "feasibility_planner.name"}
 
 
 def test_language_model_alias_implies_its_options() -> None:
@@ -204,7 +208,7 @@ def test_language_model_alias_implies_its_options() -> None:
     registry = Registry()
     registry.register_plugin(plugin(t2m_register_language_models=[hosted]), name="hosted")
     registry.register_plugin(EveryKind(), name="every-kind")
-    others = ["simulator.name=toysim", "scene_parser.name=toy-parser"]
+    others = ["simulator.name=toysim", "scene_parser.name=toy-parser", "skills.name=toy-skills", "feasibility_planner.name=toy-cem"]
 
     def language_model(llm: str, *overrides: str) -> dict:
         config = resolve_config(flags={"llm": llm}, overrides=[*others, *overrides], registry=registry)

@@ -1,0 +1,60 @@
+"""Options of the feasibility planners (``--set feasibility_planner.options.<key>=...``)."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+
+class SamplingOptions(BaseModel):
+    """What every sampling planner shares."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    population: int = Field(10_000, ge=1, description="trajectories sampled per iteration")
+    scale_population_by_horizon: bool = Field(
+        False, description="sample population × 4T trajectories (the original implementation) instead of population"
+    )
+    seed: int = Field(0, ge=0, description="seed of the planner's random draws; a plan is deterministic for a seed")
+    chunk_size: int = Field(
+        20_000, ge=1, description="trajectories rolled out per batch (bounds memory; CEM results do not depend on it)"
+    )
+    ood_penalty: bool = Field(False, description="optimise the OOD-masked product instead of reporting the flags only")
+
+    def samples(self, horizon: int) -> int:
+        """Trajectories per iteration for a skeleton of ``horizon`` skills."""
+        return self.population * (4 * horizon if self.scale_population_by_horizon else 1)
+
+
+class CEMOptions(SamplingOptions):
+    """The cross-entropy method (PolicyCEM by default: the paper's settings)."""
+
+    iterations: int = Field(10, ge=1, description="CEM iterations")
+    elites: int = Field(10, ge=1, description="elite trajectories kept per iteration")
+    keep_elites: bool = Field(True, description="carry the elites into the next iteration's population")
+    sigma: float = Field(0.3, gt=0, description="initial standard deviation, normalised action units")
+    sigma_mode: Literal["constant", "adaptive"] = Field(
+        "constant", description="constant: hold sigma (paper); adaptive: the elites' std, floored at 1e-4 (original)"
+    )
+
+
+class RandomCEMOptions(CEMOptions):
+    """RandomCEM: seeded by a uniform-random rollout, sigma 1.0, 10 000 × 4T samples."""
+
+    sigma: float = Field(1.0, gt=0, description="initial standard deviation, normalised action units")
+    scale_population_by_horizon: bool = Field(True, description="sample population × 4T trajectories")
+
+
+class ShootingOptions(SamplingOptions):
+    """One pass of sampled trajectories; the best wins (100 000 × 4T samples)."""
+
+    population: int = Field(100_000, ge=1, description="trajectories sampled")
+    scale_population_by_horizon: bool = Field(True, description="sample population × 4T trajectories")
+    sigma: float = Field(0.3, gt=0, description="PolicyShooting: std of the noise on the policy's actions")
+
+
+class PolicyOptions(BaseModel):
+    """The deterministic policy rollout: nothing to choose."""
+
+    model_config = ConfigDict(extra="forbid")

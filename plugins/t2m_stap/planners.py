@@ -1,0 +1,163 @@
+"""The feasibility planners (docs/guide/feasibility.md#policycem, #baselines).
+
+Each implements :class:`t2m_core.protocols.FeasibilityPlanner`: ``plan(observation, skeleton,
+skills, object_names) -> PlanResult``. All are deterministic for their ``seed``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import torch
+
+from t2m_core.domain.skills import SkillCall
+from t2m_core.protocols import PlanResult
+from t2m_stap.options import CEMOptions, PolicyOptions, RandomCEMOptions, SamplingOptions, ShootingOptions
+from t2m_stap.rollout import Rollouts, Step, prepare_steps, rollout, rollout_in_chunks, thresholds_of
+
+
+def _observation(observation: np.ndarray) -> torch.Tensor:
+    tensor = torch.as_tensor(np.asarray(observation, dtype=np.float32))
+    if tensor.shape != (8, 12):
+        raise ValueError(f"expected an (8, 12) observation, got shape {tuple(tensor.shape)}")
+    return tensor
+
+
+def plan_result(rollouts: Rollouts, index: int, thresholds: torch.Tensor) -> PlanResult:
+    """The :class:`PlanResult` of trajectory ``index``: its values, OOD flags and the masked product."""
+    ood = rollouts.ood(thresholds)[index]
+    values = rollouts.values[index]
+    return PlanResult(
+        actions=rollouts.actions[index].numpy().astype(np.float32),
+        states=rollouts.states[index].numpy().astype(np.float32),
+        values=values.numpy().astype(np.float32),
+        ood=ood.numpy(),
+        p_success=float((values * (~ood)).prod()),
+        variances=rollouts.variances[index].numpy().astype(np.float32),
+        q_members=rollouts.q_members[index].numpy().astype(np.float32),
+    )
+
+
+def _empty_plan(observation: torch.Tensor) -> PlanResult:
+    return PlanResult(
+        np.zeros((0, 4), np.float32), observation.numpy()[None].copy(), np.zeros(0, np.float32), np.zeros(0, bool), 1.0,
+        np.zeros(0, np.float32), np.zeros((0, 0), np.float32),
+    )
+
+
+class PolicyRollout:
+    """``policy``: one deterministic rollout of the skills' policies; reports its Q product."""
+
+    def __init__(self, options: PolicyOptions | None = None) -> None:
+        self.options = options or PolicyOptions()
+
+    def plan(self, observation: np.ndarray, skeleton: Sequence[SkillCall], skills: Mapping[str, Any], object_names: Sequence[str]) -> PlanResult:
+        start = _observation(observation)
+        if not skeleton:
+            return _empty_plan(start)
+        steps = prepare_steps(skeleton, skills, object_names)
+        return plan_result(rollout(steps, start), 0, thresholds_of(steps))
+
+
+class CrossEntropyMethod:
+    """``policy-cem`` (``initial="policy"``, the default feasibility planner) and ``random-cem``
+    (``initial="random"``): the cross-entropy method over the whole skeleton's actions."""
+
+    def __init__(self, options: CEMOptions | None = None, initial: str = "policy") -> None:
+        self.options = options or CEMOptions()
+        self.initial = initial
+
+    def plan(self, observation: np.ndarray, skeleton: Sequence[SkillCall], skills: Mapping[str, Any], object_names: Sequence[str]) -> PlanResult:
+        options = self.options
+        start = _observation(observation)
+        if not skeleton:
+            return _empty_plan(start)
+        steps = prepare_steps(skeleton, skills, object_names)
+        thresholds = thresholds_of(steps)
+        generator = torch.Generator().manual_seed(options.seed)
+        horizon = len(steps)
+        if self.initial == "policy":
+            mean = rollout(steps, start).actions[0]
+        else:
+            mean = torch.rand((horizon, 4), generator=generator) * 2 - 1
+        sigma = torch.full((horizon, 4), options.sigma)
+        samples_per_iteration = options.samples(horizon)
+        best: tuple[float, Rollouts, int] | None = None
+        elites: torch.Tensor | None = None
+        for _ in range(options.iterations):
+            actions = (mean + sigma * torch.randn((samples_per_iteration, horizon, 4), generator=generator)).clamp(-1.0, 1.0)
+            kept = 0
+            if elites is not None and options.keep_elites:
+                kept = min(len(elites), samples_per_iteration)
+                actions[:kept] = elites[:kept]
+            if kept < samples_per_iteration:
+                actions[kept] = mean  # the mean itself is always one candidate
+            rollouts = rollout_in_chunks(steps, start, actions, options.chunk_size)
+            scores = rollouts.p_success(thresholds if options.ood_penalty else None)
+            top = torch.topk(scores, min(options.elites, samples_per_iteration)).indices
+            if best is None or float(scores[top[0]]) > best[0]:
+                best = (float(scores[top[0]]), rollouts, int(top[0]))
+            elites = actions[top]
+            mean = elites.mean(dim=0)
+            if options.sigma_mode == "adaptive":
+                sigma = elites.std(dim=0, unbiased=False).clamp_min(1e-4) if len(elites) > 1 else sigma
+        assert best is not None
+        return plan_result(best[1], best[2], thresholds)
+
+
+class Shooting:
+    """``policy-shooting`` (``initial="policy"``: the policies' actions at every predicted state plus
+    N(0, σ²) noise) and ``random-shooting`` (uniform actions): one pass, the best trajectory wins."""
+
+    def __init__(self, options: ShootingOptions | None = None, initial: str = "policy") -> None:
+        self.options = options or ShootingOptions()
+        self.initial = initial
+
+    def plan(self, observation: np.ndarray, skeleton: Sequence[SkillCall], skills: Mapping[str, Any], object_names: Sequence[str]) -> PlanResult:
+        options = self.options
+        start = _observation(observation)
+        if not skeleton:
+            return _empty_plan(start)
+        steps = prepare_steps(skeleton, skills, object_names)
+        thresholds = thresholds_of(steps)
+        generator = torch.Generator().manual_seed(options.seed)
+        total = options.samples(len(steps))
+        best: tuple[float, Rollouts, int] | None = None
+        for begin in range(0, total, options.chunk_size):
+            count = min(options.chunk_size, total - begin)
+            if self.initial == "policy":
+                rollouts = rollout(steps, start, count=count, policy_noise=options.sigma, generator=generator)
+            else:
+                actions = torch.rand((count, len(steps), 4), generator=generator) * 2 - 1
+                rollouts = rollout(steps, start, actions)
+            scores = rollouts.p_success(thresholds if options.ood_penalty else None)
+            top = int(torch.argmax(scores))
+            if best is None or float(scores[top]) > best[0]:
+                best = (float(scores[top]), rollouts, top)
+        assert best is not None
+        return plan_result(best[1], best[2], thresholds)
+
+
+def policy_cem(options: CEMOptions) -> CrossEntropyMethod:
+    return CrossEntropyMethod(options, "policy")
+
+
+def random_cem(options: RandomCEMOptions) -> CrossEntropyMethod:
+    return CrossEntropyMethod(options, "random")
+
+
+def policy_shooting(options: ShootingOptions) -> Shooting:
+    return Shooting(options, "policy")
+
+
+def random_shooting(options: ShootingOptions) -> Shooting:
+    return Shooting(options, "random")
+
+
+def policy_only(options: PolicyOptions) -> PolicyRollout:
+    return PolicyRollout(options)
+
+
+__all__ = ["CrossEntropyMethod", "PolicyRollout", "SamplingOptions", "Shooting", "Step"]

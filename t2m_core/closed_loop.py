@@ -1,0 +1,117 @@
+"""Closed-loop execution of a fixed skill sequence (docs/guide/feasibility.md#closed-loop-execution).
+
+Before every skill the remaining sequence is planned again from the simulator's real observation,
+the first planned action is executed, and execution stops at the first failed primitive. There is no
+task-level replanning here: the skeleton is fixed.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from t2m_core.domain.skills import SkillCall
+from t2m_core.protocols import FeasibilityPlanner, PlanResult, PrimitiveResult
+
+
+@dataclass(frozen=True)
+class ExecutedStep:
+    """One executed skill.
+
+    Attributes:
+        call: the skill. plan: the plan of the remaining skeleton made just before it (its first
+        step is this skill). action: ``(4,)`` the executed action. result: what the simulator did.
+        plan_seconds, execute_seconds: wall time of planning and of simulating it.
+    """
+
+    call: SkillCall
+    plan: PlanResult
+    action: np.ndarray
+    result: PrimitiveResult
+    plan_seconds: float
+    execute_seconds: float
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready: the step's action, values, OOD flags, p_success and outcome."""
+        members = self.plan.q_members
+        return {
+            "skill": str(self.call),
+            "action": [round(float(a), 4) for a in self.action],
+            "value": float(self.plan.values[0]),
+            "q_members": [round(float(q), 4) for q in members[0]] if members is not None and len(members) else None,
+            "ood": bool(self.plan.ood[0]),
+            "p_success_remaining": float(self.plan.p_success),
+            "success": bool(self.result.success),
+            "failure": self.result.failure,
+            "plan_seconds": round(self.plan_seconds, 3),
+            "execute_seconds": round(self.execute_seconds, 3),
+        }
+
+
+@dataclass
+class ClosedLoopResult:
+    """What a closed-loop execution did: its steps in order; ``success`` when every skill succeeded."""
+
+    steps: list[ExecutedStep] = field(default_factory=list)
+    initial_plan: PlanResult | None = None
+
+    @property
+    def success(self) -> bool:
+        return bool(self.steps) and all(step.result.success for step in self.steps)
+
+
+def execute_closed_loop(
+    simulator: Any,
+    planner: FeasibilityPlanner,
+    skills: Mapping[str, Any],
+    skeleton: Sequence[SkillCall],
+    object_names: Sequence[str],
+    *,
+    on_step: Callable[[ExecutedStep], None] | None = None,
+    closed_loop: bool = True,
+) -> ClosedLoopResult:
+    """Execute ``skeleton`` in ``simulator`` (already reset), planning with ``planner``.
+
+    Args:
+        object_names: the present objects in observation-row order.
+        on_step: called after each executed skill.
+        closed_loop: re-plan the remaining skills before each one (default); ``False`` executes the
+            first plan's actions open loop.
+    """
+    outcome = ClosedLoopResult()
+    first_plan: PlanResult | None = None
+    for index, call in enumerate(skeleton):
+        started = time.perf_counter()
+        if closed_loop or first_plan is None:
+            plan = planner.plan(simulator.observation(), list(skeleton[index:]), skills, object_names)
+            offset = 0
+        else:
+            plan, offset = first_plan, index
+        first_plan = first_plan or plan
+        planned = time.perf_counter()
+        action = np.asarray(plan.actions[offset], dtype=np.float64)
+        result = simulator.execute(call.name, call.args, np.clip(action, -1.0, 1.0))
+        step = ExecutedStep(call, _from_step(plan, offset), action, result, planned - started, time.perf_counter() - planned)
+        outcome.steps.append(step)
+        if on_step is not None:
+            on_step(step)
+        if not result.success:
+            break
+    outcome.initial_plan = first_plan
+    return outcome
+
+
+def _from_step(plan: PlanResult, offset: int) -> PlanResult:
+    """``plan`` seen from its step ``offset`` on (the open-loop case reuses one plan)."""
+    if offset == 0:
+        return plan
+    values, ood = plan.values[offset:], plan.ood[offset:]
+    return PlanResult(
+        plan.actions[offset:], plan.states[offset:], values, ood, float(np.prod(values * ~ood)),
+        None if plan.variances is None else plan.variances[offset:],
+        None if plan.q_members is None else plan.q_members[offset:],
+    )

@@ -1,0 +1,90 @@
+"""The STAP feasibility planners on problems whose answer is known (docs/guide/feasibility.md)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from t2m_core.domain.skills import SkillCall
+from t2m_core.testing import check_feasibility_planner
+from t2m_stap.options import CEMOptions, RandomCEMOptions, ShootingOptions
+from t2m_stap.planners import CrossEntropyMethod, PolicyRollout, Shooting
+from tests.plugins.t2m_stap.toy_skills import ToySkill
+
+OBJECTS = ("table", "rack", "red_box", "blue_box")
+OBSERVATION = np.zeros((8, 12), np.float32)
+OBSERVATION[2, :3] = (0.7, 0.0, 0.0)  # rows: 0 end effector, 1 table (zeros), 2 rack, 3 red_box, 4 blue_box
+OBSERVATION[3, :3] = (0.5, 0.1, 0.03)
+OBSERVATION[4, :3] = (0.4, -0.2, 0.05)
+PICK = SkillCall("pick", ("red_box",))
+PLACE = SkillCall("place", ("red_box", "rack"))
+
+PLANNERS = {
+    "policy-cem": lambda: CrossEntropyMethod(CEMOptions(population=400, seed=1), "policy"),
+    "random-cem": lambda: CrossEntropyMethod(RandomCEMOptions(population=100, seed=1), "random"),
+    "policy-shooting": lambda: Shooting(ShootingOptions(population=500, seed=1), "policy"),
+    "random-shooting": lambda: Shooting(ShootingOptions(population=500, seed=1), "random"),
+    "policy": lambda: PolicyRollout(),
+}
+
+
+@pytest.mark.parametrize("name", sorted(PLANNERS))
+def test_every_planner_conforms(name: str) -> None:
+    skills = {"pick": ToySkill("pick"), "place": ToySkill("place", chained=True)}
+    check_feasibility_planner(PLANNERS[name](), OBSERVATION, [PICK, PLACE], skills, OBJECTS)
+
+
+def test_cem_finds_the_best_action_that_the_policy_misses() -> None:
+    skills = {"pick": ToySkill("pick", target=(0.6, -0.4, 0.2, 0.0))}
+    policy = PolicyRollout().plan(OBSERVATION, [PICK], skills, OBJECTS)
+    cem = CrossEntropyMethod(CEMOptions(population=2000)).plan(OBSERVATION, [PICK], skills, OBJECTS)
+    assert policy.p_success < 0.05
+    np.testing.assert_allclose(cem.actions[0], (0.6, -0.4, 0.2, 0.0), atol=0.05)
+    assert cem.p_success > 0.95
+    assert cem.values[0] == pytest.approx(0.98 * np.exp(-np.sum((cem.actions[0] - (0.6, -0.4, 0.2, 0.0)) ** 2) / 0.1), rel=1e-4)
+
+
+def test_cem_resolves_a_dependency_across_steps_through_the_dynamics() -> None:
+    # step 2 succeeds only if its first action component is twice what step 1 left in the state,
+    # and step 1 is indifferent to its own first component: only a joint optimisation gets both right
+    first = ToySkill("pick", target=(0.0, -0.4, 0.2, 0.0))
+    first.q_values = lambda states, actions: (  # noqa: E731 - step 1 ignores its first component
+        ToySkill.q_values(first, states, actions * __import__("torch").tensor([0.0, 1.0, 1.0, 1.0]))
+    )
+    skills = {"pick": first, "place": ToySkill("place", policy_action=(0.9, -0.4, 0.2, 0.0), chained=True)}
+    result = CrossEntropyMethod(CEMOptions(population=3000)).plan(OBSERVATION, [PICK, PLACE], skills, OBJECTS)
+    assert result.p_success > 0.8
+    # the predicted state carries step 1's choice, and step 2's action matches it
+    moved_x_normalised = (result.states[1, 3, 0] - 0.3) / 1.2
+    assert result.actions[1, 0] == pytest.approx(2 * moved_x_normalised, abs=0.1)
+    assert result.actions[1, 0] == pytest.approx(0.8 * result.actions[0, 0], abs=0.1)  # 2 × (0.4 × a₀)
+    greedy = PolicyRollout().plan(OBSERVATION, [PICK, PLACE], skills, OBJECTS)
+    assert greedy.p_success < 0.1  # the policies alone do not coordinate the two steps
+
+
+def test_the_returned_plan_carries_its_rollout() -> None:
+    skills = {"pick": ToySkill("pick"), "place": ToySkill("place", chained=True)}
+    result = CrossEntropyMethod(CEMOptions(population=300)).plan(OBSERVATION, [PICK, PLACE], skills, OBJECTS)
+    # the dynamics wrote action[0] * 0.4 into the first argument's normalised x: decoded, that is x
+    expected_x = result.actions[0, 0] * 0.4 * 1.2 + 0.3
+    assert result.states[1, 3, 0] == pytest.approx(expected_x, abs=1e-5)
+    np.testing.assert_array_equal(result.states[1, 3, 6:], OBSERVATION[3, 6:])  # static features copied
+    assert not result.states[1, 5:].any()  # rows beyond the present objects stay empty
+    assert result.q_members.shape == (2, 8) and result.variances.shape == (2,)
+
+
+def test_an_ood_step_zeroes_the_plan_but_not_the_optimisation_by_default() -> None:
+    skills = {"pick": ToySkill("pick", ood_threshold=1e-6)}  # the toy members always disagree a little
+    result = CrossEntropyMethod(CEMOptions(population=500)).plan(OBSERVATION, [PICK], skills, OBJECTS)
+    assert result.ood.all() and result.p_success == 0.0
+    assert result.values[0] > 0.9  # the flag was applied after optimising, not inside it
+
+
+def test_the_population_can_scale_with_the_horizon() -> None:
+    assert CEMOptions(population=100).samples(3) == 100
+    assert CEMOptions(population=100, scale_population_by_horizon=True).samples(3) == 1200
+
+
+def test_an_unknown_skill_is_named_with_the_library_contents() -> None:
+    with pytest.raises(KeyError, match="has no 'push' skill; it has pick"):
+        PolicyRollout().plan(OBSERVATION, [SkillCall("push", ("red_box", "hook", "rack"))], {"pick": ToySkill("pick")}, (*OBJECTS, "hook"))
