@@ -286,11 +286,65 @@ class SceneParser(Protocol):
 # --------------------------------------------------------------------------------------------------
 
 
+@dataclass
+class PlanningContext:
+    """Everything a task planner works with for one episode.
+
+    Attributes:
+        instruction: the human instruction.
+        goal: the predicted goal (:class:`t2m_core.domain.goals.Goal`); lookahead planners stop on it,
+            the myopic baselines only show it to the language model.
+        session: the :class:`t2m_core.language.session.LanguageSession` of the scene (prompts, queries).
+        skills: skill name -> :class:`Skill`.
+        feasibility: the :class:`FeasibilityPlanner` (STAP).
+        object_names: the present objects in observation-row order.
+        observation: ``(8, 12) float32`` the observation planning starts from.
+        simulator: the :class:`Simulator`, for planners that interleave planning and execution (the
+            myopic baselines); ``None`` otherwise.
+        on_event: receives every plan-tree record (candidates, scores, decisions) as a JSON-ready dict.
+    """
+
+    instruction: str
+    goal: Any
+    session: Any
+    skills: Mapping[str, Skill]
+    feasibility: FeasibilityPlanner
+    object_names: Sequence[str]
+    observation: np.ndarray
+    simulator: Simulator | None = None
+    on_event: Any = None
+
+
+@dataclass
+class TaskPlan:
+    """What a task planner returns.
+
+    Attributes:
+        skeleton: the chosen skill sequence (``SkillCall`` s); for the myopic baselines, what they executed.
+        plan: the feasibility plan of ``skeleton`` from the start (``None`` when planning failed or
+            for planners that executed as they went).
+        failure: why planning failed, or ``None``.
+        executed: ``True`` when the planner already executed its skills (myopic baselines).
+        llm_calls, stap_calls: how many language-model requests and feasibility plans it made.
+    """
+
+    skeleton: Sequence[Any]
+    plan: PlanResult | None
+    failure: str | None = None
+    executed: bool = False
+    llm_calls: int = 0
+    stap_calls: int = 0
+
+    @property
+    def found(self) -> bool:
+        """A plan was found (not a planning failure)."""
+        return self.failure is None
+
+
 @runtime_checkable
 class TaskPlanner(Protocol):
     """The language-level search (hybrid, shooting, greedy-search, saycan-gs, innermono-gs)."""
 
-    def plan(self, instruction: str, state: GeometricState, context: Any) -> Any:
-        """Search for a skill sequence whose predicted final state satisfies the predicted goal."""
+    def plan(self, context: PlanningContext) -> TaskPlan:
+        """Search for a skill sequence whose predicted final state satisfies ``context.goal``."""
         ...
-

@@ -238,5 +238,6 @@ def test_set_keys_are_found_with_a_value_or_an_ellipsis() -> None:
 def test_commands_and_options_are_checked_against_the_app() -> None:
     assert list(command_problems("t2m tasks show task1 --seed 3 --json")) == []
     assert list(command_problems("t2m sim demo --task task0 --out DIR")) == []
-    assert list(command_problems("t2m run --task task0")) != []
+    assert list(command_problems("t2m run --task task0")) == []
+    assert list(command_problems("t2m runn --task task0")) != []
     assert list(command_problems("t2m sim demo --tsak task0")) != []

@@ -9,7 +9,7 @@ A run is one YAML document::
     scene_parser: {name: ground-truth, options: {}}
     skills: {name: tableenv, options: {}}
     feasibility_planner: {name: policy-cem, options: {}}
-    task_planner: null         # no builtin yet: a later issue adds hybrid (Text2Motion)
+    task_planner: {name: hybrid, options: {}}
     run: {closed_loop: true}
     output: {video: true, video_fps: 30}
 
@@ -83,7 +83,8 @@ class RunConfig(BaseModel):
         description="Feasibility planner: STAP PolicyCEM by default.",
     )
     task_planner: ComponentConfig | None = Field(
-        None, description="Task planner. Default null: no builtin planner is registered yet."
+        default_factory=lambda: ComponentConfig(name="hybrid"),
+        description="Task planner: Text2Motion's hybrid by default.",
     )
     run: RunSettings = Field(default_factory=RunSettings)
     output: OutputSettings = Field(default_factory=OutputSettings)

@@ -153,10 +153,18 @@ class LanguageSession:
         after = symbolic_relationships(self.scene.objects, self.scene.relationships, executed)
         return after[-1] if after else self.scene.relationships
 
-    def generate_next(self, goal: Goal, executed: Sequence[SkillCall]) -> tuple[list[SkillCall], list[Attempt]]:
-        """K candidate next skills from the next-skill prompt."""
-        prompt = self.prompts.next_skill(self.scene, goal, self.history(executed))
-        calls = valid_groundings(self.scene.objects, self.current_relationships(executed)) if self.grounded else None
+    def _history(self, executed: Sequence[SkillCall], history: Sequence[HistoryStep] | None) -> list[HistoryStep]:
+        return list(history) if history is not None else self.history(executed)
+
+    def generate_next(
+        self, goal: Goal, executed: Sequence[SkillCall], history: Sequence[HistoryStep] | None = None
+    ) -> tuple[list[SkillCall], list[Attempt]]:
+        """K candidate next skills from the next-skill prompt. ``history`` (the planned prefix with the
+        relationships a feasibility planner predicted) replaces the symbolically predicted one."""
+        history = self._history(executed, history)
+        prompt = self.prompts.next_skill(self.scene, goal, history)
+        relationships = history[-1].relationships if history and history[-1].relationships is not None else self.scene.relationships
+        calls = valid_groundings(self.scene.objects, relationships) if self.grounded else None
         candidates, attempts = query_next_skills(
             self.model,
             prompt,
@@ -168,15 +176,17 @@ class LanguageSession:
         return candidates.calls, attempts
 
     def generate_sequences(
-        self, goal: Goal, executed: Sequence[SkillCall] = ()
+        self, goal: Goal, executed: Sequence[SkillCall] = (), history: Sequence[HistoryStep] | None = None
     ) -> tuple[list[tuple[SkillCall, ...]], list[Attempt]]:
         """K whole skill sequences (shooting) continuing ``executed``."""
-        prompt = self.prompts.shooting(self.scene, goal, self.history(executed))
+        prompt = self.prompts.shooting(self.scene, goal, self._history(executed, history))
         return query_skill_sequences(self.model, prompt, self.scene.objects, self.k, constrained=self.constrained)
 
-    def score(self, goal: Goal, executed: Sequence[SkillCall], calls: Sequence[SkillCall]) -> ScoredCandidates:
+    def score(
+        self, goal: Goal, executed: Sequence[SkillCall], calls: Sequence[SkillCall], history: Sequence[HistoryStep] | None = None
+    ) -> ScoredCandidates:
         """ℓ and S_llm of each call as the next skill after ``executed``."""
-        context = self.prompts.scoring_context(self.scene, goal, self.history(executed))
+        context = self.prompts.scoring_context(self.scene, goal, self._history(executed, history))
         prompt, continuations = scoring_request(context, [str(call) for call in calls])
         logprobs = self.model.score(prompt, continuations) if calls else []
         finite = [value if math.isfinite(value) else -math.inf for value in logprobs]

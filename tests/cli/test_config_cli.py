@@ -17,7 +17,7 @@ runner = CliRunner()
 
 TOY_SELECTION = [
     "--sim", "toysim", "--llm", "toy-llm", "--set", "scene_parser.name=toy-parser",
-    "--set", "skills.name=toy-skills", "--set", "feasibility_planner.name=toy-cem",
+    "--set", "skills.name=toy-skills", "--set", "feasibility_planner.name=toy-cem", "--planner", "toy-hybrid",
 ]
 
 

@@ -27,8 +27,7 @@ def test_defaults_select_the_builtin_components() -> None:
         "local",
         "ground-truth",
     )
-    assert (config.skills.name, config.feasibility_planner.name) == ("tableenv", "policy-cem")
-    assert config.task_planner is None
+    assert (config.skills.name, config.feasibility_planner.name, config.task_planner.name) == ("tableenv", "policy-cem", "hybrid")
     assert config.run.closed_loop is True and config.output.video_fps == 30
 
 
@@ -116,8 +115,7 @@ def test_wrong_types_and_missing_names_are_reported(tmp_path: Path) -> None:
     _, issues = check_config([path])
     assert {str(issue) for issue in issues} == {
         f"seed: Input should be a valid integer, unable to parse string as an integer (from {path})",
-        f"task_planner.name: required key is missing (from {path})",  # scene_parser keeps its default name
-    }
+    }  # task_planner and scene_parser keep their default names
 
 
 def test_yaml_syntax_error_names_line_and_column(tmp_path: Path) -> None:
@@ -152,6 +150,7 @@ def toy_components(*extra: str) -> list[str]:
         "scene_parser.name=toy-parser",
         "skills.name=toy-skills",
         "feasibility_planner.name=toy-cem",
+        "task_planner.name=toy-hybrid",
         *extra,
     ]
 
@@ -182,6 +181,7 @@ def test_null_blocks_are_not_looked_up(toy_registry: Registry) -> None:
     registry = Registry()
     registry.register_plugin(plugin(t2m_register_simulators=[toy_simulator_spec()]))
     _, issues = check_config(overrides=["simulator.name=toysim"], registry=registry)
+    _, issues = check_config(overrides=["simulator.name=toysim", "task_planner=null"], registry=registry)
     # task_planner is null: not looked up; the others name components this registry lacks
     assert {issue.path for issue in issues} == {"language_model.name", "scene_parser.name", "skills.name", "feasibility_planner.name"}
 
@@ -208,7 +208,8 @@ def test_language_model_alias_implies_its_options() -> None:
     registry = Registry()
     registry.register_plugin(plugin(t2m_register_language_models=[hosted]), name="hosted")
     registry.register_plugin(EveryKind(), name="every-kind")
-    others = ["simulator.name=toysim", "scene_parser.name=toy-parser", "skills.name=toy-skills", "feasibility_planner.name=toy-cem"]
+    others = ["simulator.name=toysim", "scene_parser.name=toy-parser", "skills.name=toy-skills", "feasibility_planner.name=toy-cem",
+              "task_planner.name=toy-hybrid"]
 
     def language_model(llm: str, *overrides: str) -> dict:
         config = resolve_config(flags={"llm": llm}, overrides=[*others, *overrides], registry=registry)

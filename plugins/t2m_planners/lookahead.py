@@ -1,0 +1,236 @@
+"""The lookahead planners: shooting, greedy-search and Text2Motion's hybrid (docs/guide/planners.md).
+
+All three plan every candidate sequence with the feasibility planner from the start state, read the
+predicted states to describe the planned prefix to the language model and to test the goal, and
+accept a goal-reaching plan only when every OOD-masked step value exceeds τ.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from t2m_core.domain.goals import goal_satisfied
+from t2m_core.domain.observation import decode_observation
+from t2m_core.domain.skills import SkillCall
+from t2m_core.language.prompts import HistoryStep
+from t2m_core.language.scene_description import relationships_of
+from t2m_core.protocols import PlanningContext, PlanResult, TaskPlan
+from t2m_planners.options import LookaheadOptions
+
+
+def masked_values(plan: PlanResult) -> np.ndarray:
+    """``(T,)`` the step values with OOD steps zeroed: ṽ_t = v_t · (1 − o_t)."""
+    return np.asarray(plan.values, dtype=np.float64) * ~np.asarray(plan.ood, dtype=bool)
+
+
+def truncated(plan: PlanResult, steps: int) -> PlanResult:
+    """``plan`` restricted to its first ``steps`` skills."""
+    values, ood = plan.values[:steps], plan.ood[:steps]
+    return PlanResult(
+        plan.actions[:steps], plan.states[: steps + 1], values, ood, float(np.prod(values * ~ood)),
+        None if plan.variances is None else plan.variances[:steps],
+        None if plan.q_members is None else plan.q_members[:steps],
+    )
+
+
+@dataclass
+class Candidate:
+    """A scored next-skill candidate of a greedy step."""
+
+    call: SkillCall
+    plan: PlanResult
+    logprob: float
+    usefulness: float
+    feasibility: float
+
+    @property
+    def score(self) -> float:
+        return self.usefulness * self.feasibility
+
+
+class Search:
+    """The shared machinery of one lookahead planning episode: STAP calls, the goal test on
+    predicted states, prompt histories, counters and plan-tree events."""
+
+    def __init__(self, context: PlanningContext, options: LookaheadOptions) -> None:
+        self.context = context
+        self.options = options
+        self.objects = tuple(context.object_names)
+        self.llm_calls = 0
+        self.stap_calls = 0
+
+    # --- helpers of the algorithms ----------------------------------------------------------------
+
+    def emit(self, event: str, **fields: Any) -> None:
+        if self.context.on_event is not None:
+            self.context.on_event({"event": event, **fields})
+
+    def stap(self, sequence: Sequence[SkillCall]) -> PlanResult:
+        self.stap_calls += 1
+        return self.context.feasibility.plan(self.context.observation, list(sequence), self.context.skills, self.objects)
+
+    def ok(self, plan: PlanResult, steps: int) -> bool:
+        """Every masked value of the first ``steps`` steps exceeds τ."""
+        return bool(np.all(masked_values(plan)[:steps] > self.options.tau))
+
+    def satisfied(self, plan: PlanResult, steps: int) -> bool:
+        """The goal holds on the predicted state after ``steps`` skills."""
+        return goal_satisfied(self.context.goal, decode_observation(plan.states[steps], self.objects), self.objects)
+
+    def history(self, plan: PlanResult | None, prefix: Sequence[SkillCall]) -> list[HistoryStep]:
+        """The planned prefix as prompt history lines, with the relationships of the latest predicted states."""
+        if plan is None or not prefix:
+            return []
+        return [
+            HistoryStep(str(call), relationships_of(decode_observation(plan.states[k + 1], self.objects), self.objects))
+            for k, call in enumerate(prefix)
+        ]
+
+    @staticmethod
+    def plan_fields(plan: PlanResult) -> dict[str, Any]:
+        return {
+            "values": [round(float(v), 4) for v in plan.values],
+            "ood": [bool(o) for o in plan.ood],
+            "p_success": round(float(plan.p_success), 6),
+        }
+
+    # --- the algorithms ---------------------------------------------------------------------------
+
+    def shooting(self, prefix: list[SkillCall], prefix_plan: PlanResult | None, depth_left: int) -> tuple[list[SkillCall], PlanResult] | None:
+        """One shooting query continuing ``prefix``; the most feasible goal-reaching truncation, or ``None``."""
+        sequences, attempts = self.context.session.generate_sequences(
+            self.context.goal, prefix, history=self.history(prefix_plan, prefix)
+        )
+        self.llm_calls += len(attempts)
+        found: list[tuple[float, list[SkillCall], PlanResult]] = []
+        seen: set[tuple[SkillCall, ...]] = set()
+        for proposed in sequences:
+            continuation = list(proposed)
+            if prefix and continuation[: len(prefix)] == prefix:
+                continuation = continuation[len(prefix) :]  # the model repeated the planned prefix
+            if not continuation or tuple(continuation) in seen:
+                continue
+            seen.add(tuple(continuation))
+            full = prefix + continuation
+            if len(continuation) > depth_left:
+                self.emit("shooting_candidate", prefix=[str(c) for c in prefix], sequence=[str(c) for c in full], kept=False, reason="longer than the remaining depth")
+                continue
+            plan = self.stap(full)
+            reason = "the goal does not hold on any predicted state"
+            for steps in range(len(prefix) + 1, len(full) + 1):
+                feasible = self.ok(plan, steps if self.options.feasible_truncation == "through" else steps - 1)
+                if not feasible:
+                    reason = f"step {steps} ({full[steps - 1]}) or an earlier one is at or below tau, or out of distribution"
+                    break
+                if self.satisfied(plan, steps):
+                    product = float(np.prod(masked_values(plan)[:steps]))
+                    found.append((product, full[:steps], truncated(plan, steps)))
+                    reason = f"reaches the goal after {steps} skills"
+                    break
+            self.emit("shooting_candidate", prefix=[str(c) for c in prefix], sequence=[str(c) for c in full], **self.plan_fields(plan),
+                      kept=reason.startswith("reaches"), reason=reason)
+        if not found:
+            return None
+        product, sequence, plan = max(found, key=lambda item: item[0])
+        self.emit("shooting_choice", sequence=[str(c) for c in sequence], p_success=round(product, 6))
+        return sequence, plan
+
+    def greedy_step(self, prefix: list[SkillCall], prefix_plan: PlanResult | None) -> list[Candidate] | None:
+        """K next-skill candidates, each planned with the prefix and scored S_llm · S_geo."""
+        history = self.history(prefix_plan, prefix)
+        proposed, attempts = self.context.session.generate_next(self.context.goal, prefix, history=history)
+        self.llm_calls += len(attempts)
+        calls = list(dict.fromkeys(proposed))
+        if not calls:
+            self.emit("greedy_step", prefix=[str(c) for c in prefix], candidates=[], reason="the language model proposed no valid skill")
+            return None
+        plans = [self.stap(prefix + [call]) for call in calls]
+        scored = self.context.session.score(self.context.goal, prefix, calls, history=history)
+        self.llm_calls += 1
+        candidates = []
+        for call, plan, logprob, usefulness in zip(calls, plans, scored.logprobs, scored.usefulness, strict=True):
+            masked = masked_values(plan)
+            feasibility = float(masked[-1]) if self.options.geometric_score == "last" else float(np.prod(masked))
+            candidates.append(Candidate(call, plan, float(logprob), float(usefulness), feasibility))
+        return candidates
+
+    def terminal(self, prefix: list[SkillCall], candidates: list[Candidate]) -> Candidate | None:
+        """The best goal-reaching candidate whose every step passes τ (by masked product), or ``None``."""
+        steps = len(prefix) + 1
+        reaching = [c for c in candidates if self.satisfied(c.plan, steps) and self.ok(c.plan, steps)]
+        return max(reaching, key=lambda c: float(np.prod(masked_values(c.plan)))) if reaching else None
+
+    def record_step(self, prefix: list[SkillCall], candidates: list[Candidate], chosen: Candidate | None, terminal: bool) -> None:
+        self.emit(
+            "greedy_step",
+            prefix=[str(c) for c in prefix],
+            candidates=[
+                {
+                    "skill": str(c.call),
+                    "logprob": round(c.logprob, 4) if math.isfinite(c.logprob) else None,
+                    "usefulness": round(c.usefulness, 4),
+                    "feasibility": round(c.feasibility, 4),
+                    "score": round(c.score, 6),
+                    **self.plan_fields(c.plan),
+                    "chosen": c is chosen,
+                    "goal_reached": terminal and c is chosen,
+                }
+                for c in candidates
+            ],
+        )
+
+    def result(self, skeleton: Sequence[SkillCall], plan: PlanResult | None, failure: str | None) -> TaskPlan:
+        return TaskPlan(list(skeleton), plan, failure, False, self.llm_calls, self.stap_calls)
+
+
+class LookaheadPlanner:
+    """``hybrid`` (Text2Motion: shooting first, a greedy step as fallback, shooting again from the
+    longer prefix), ``shooting`` (one query) and ``greedy-search`` (one skill at a time)."""
+
+    def __init__(self, options: LookaheadOptions | None = None, mode: str = "hybrid") -> None:
+        if mode not in ("hybrid", "shooting", "greedy-search"):
+            raise ValueError(f"unknown lookahead mode {mode!r}")
+        self.options = options or LookaheadOptions()
+        self.mode = mode
+
+    def plan(self, context: PlanningContext) -> TaskPlan:
+        search = Search(context, self.options)
+        d_max = self.options.max_depth
+        if self.mode == "shooting":
+            shot = search.shooting([], None, d_max)
+            return search.result(*shot, None) if shot else search.result([], None, "no proposed sequence reaches the goal with every step feasible")
+        prefix: list[SkillCall] = []
+        prefix_plan: PlanResult | None = None
+        while len(prefix) < d_max:
+            if self.mode == "hybrid":
+                shot = search.shooting(prefix, prefix_plan, d_max - len(prefix))
+                if shot is not None:
+                    return search.result(*shot, None)
+            candidates = search.greedy_step(prefix, prefix_plan)
+            if candidates is None:
+                return search.result(prefix, prefix_plan, "the language model proposed no valid next skill")
+            terminal = search.terminal(prefix, candidates)
+            if terminal is not None:
+                search.record_step(prefix, candidates, terminal, True)
+                return search.result(prefix + [terminal.call], terminal.plan, None)
+            best = max(candidates, key=lambda c: c.score)
+            search.record_step(prefix, candidates, best, False)
+            prefix, prefix_plan = prefix + [best.call], best.plan
+        return search.result(prefix, prefix_plan, f"no goal-reaching plan within {d_max} skills")
+
+
+def hybrid(options: LookaheadOptions) -> LookaheadPlanner:
+    return LookaheadPlanner(options, "hybrid")
+
+
+def shooting(options: LookaheadOptions) -> LookaheadPlanner:
+    return LookaheadPlanner(options, "shooting")
+
+
+def greedy_search(options: LookaheadOptions) -> LookaheadPlanner:
+    return LookaheadPlanner(options, "greedy-search")

@@ -1,0 +1,38 @@
+"""Options of the task planners (``--set task_planner.options.<key>=...``)."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+
+class PlannerOptions(BaseModel):
+    """The constants every planner shares (docs/guide/planners.md#scores)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    k: int = Field(5, ge=1, le=20, description="skills or sequences the language model proposes per query (K)")
+    beta: float = Field(0.3, gt=0, description="softmax dampening of the language-model scores")
+    max_depth: int = Field(10, ge=1, le=30, description="most skills in a plan or an episode (d_max)")
+
+
+class LookaheadOptions(PlannerOptions):
+    """Options of hybrid, shooting and greedy-search."""
+
+    tau: float = Field(0.2, ge=0, le=1, description="a goal-reaching plan needs every OOD-masked step value above tau")
+    geometric_score: Literal["last", "product"] = Field(
+        "last", description="greedy S_geo: the masked value of the new step (paper) or the product over the prefix"
+    )
+    feasible_truncation: Literal["through", "before"] = Field(
+        "through",
+        description="shooting truncation needs steps up to and including t to pass tau (through) or, as the "
+        "original's off-by-one did, only the steps before t (before)",
+    )
+
+
+class MyopicOptions(PlannerOptions):
+    """Options of saycan-gs and innermono-gs."""
+
+    stop_value: float = Field(0.5, ge=0, description="the feasibility value of stop()")
+    stop_value_when_top: float = Field(10.0, ge=0, description="stop()'s value when the language model ranks it first")

@@ -1,0 +1,79 @@
+"""The lookahead task planners' decisions on problems whose answer the test knows
+(docs/guide/planners.md)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from t2m_core.domain.goals import parse_goal
+from t2m_core.domain.observation import encode_observation
+from t2m_core.domain.sampling import sample_initial_state
+from t2m_core.language.scene_description import describe_state
+from t2m_core.language.session import LanguageSession
+from t2m_core.protocols import PlanningContext
+from t2m_planners.lookahead import LookaheadPlanner
+from t2m_planners.options import LookaheadOptions
+from tests.plugins.t2m_planners.planner_doubles import RuleModel, SymbolicFeasibility
+
+OBJECTS = ("table", "rack", "red_box", "blue_box")
+STATE = ("aligned(rack)", "poslimit(rack)", "inworkspace(rack)", "on(rack, table)", "on(red_box, table)", "on(blue_box, table)",
+         "free(red_box)", "free(blue_box)", "inworkspace(red_box)", "inworkspace(blue_box)")
+GOAL = parse_goal("[['on(red_box, rack)']]")
+SOLUTION = "['pick(red_box)', 'place(red_box, rack)']"
+
+
+def context(model: RuleModel, feasibility: SymbolicFeasibility, events: list | None = None) -> PlanningContext:
+    state = sample_initial_state(OBJECTS, STATE, 0).state
+    session = LanguageSession(model, describe_state("put the red box on the rack", state, OBJECTS), constrained=False, grounded=False)
+    return PlanningContext("put the red box on the rack", GOAL, session, {}, feasibility, OBJECTS,
+                           encode_observation(state, OBJECTS), on_event=events.append if events is not None else None)
+
+
+def test_shooting_truncates_at_the_first_goal_state_and_takes_the_most_feasible() -> None:
+    model = RuleModel(sequences=f"[{SOLUTION[:-1]}, 'pick(blue_box)'], ['pick(red_box)', 'place(red_box, table)']]")
+    feasibility = SymbolicFeasibility()
+    result = LookaheadPlanner(LookaheadOptions(), "shooting").plan(context(model, feasibility))
+    assert result.found and [str(c) for c in result.skeleton] == ["pick(red_box)", "place(red_box, rack)"]  # pick(blue_box) cut
+    assert result.plan.values.shape == (2,) and result.plan.p_success == pytest.approx(0.81)
+    assert result.llm_calls == 1 and result.stap_calls == 2
+
+
+def test_a_goal_reaching_sequence_with_a_step_below_tau_or_out_of_distribution_is_rejected() -> None:
+    for feasibility in (SymbolicFeasibility(values={"place(red_box, rack)": 0.15}), SymbolicFeasibility(ood=["pick(red_box)"])):
+        result = LookaheadPlanner(LookaheadOptions(), "shooting").plan(context(RuleModel(sequences=f"[{SOLUTION}]"), feasibility))
+        assert not result.found and "no proposed sequence" in result.failure
+
+
+def test_greedy_search_appends_the_best_scored_skill_and_stops_on_any_goal_reaching_candidate() -> None:
+    model = RuleModel(
+        next_skills=["['pick(blue_box)', 'pick(red_box)']", "['place(red_box, table)', 'place(red_box, rack)']"],
+        scores={"pick(red_box)": -1.0, "pick(blue_box)": -2.0, "place(red_box, table)": -0.5, "place(red_box, rack)": -9.0},
+    )
+    events: list = []
+    result = LookaheadPlanner(LookaheadOptions(), "greedy-search").plan(context(model, SymbolicFeasibility(), events))
+    # step 1: pick(red_box) scores higher (usefulness from -1 vs -2 nats, equal feasibility); step 2: the
+    # goal-reaching place(red_box, rack) wins although the model prefers place(red_box, table)
+    assert [str(c) for c in result.skeleton] == ["pick(red_box)", "place(red_box, rack)"]
+    assert model.requests == ["next", "score", "next", "score"] and result.llm_calls == 4
+    steps = [e for e in events if e["event"] == "greedy_step"]
+    assert [c["skill"] for c in steps[0]["candidates"] if c["chosen"]] == ["pick(red_box)"]
+    usefulness = [c["usefulness"] for c in steps[0]["candidates"]]
+    assert usefulness[1] / usefulness[0] == pytest.approx(np.exp(0.3 * 1.0), rel=1e-3)  # softmax(0.3 ℓ)
+
+
+def test_hybrid_falls_back_to_a_greedy_step_then_shoots_again_from_the_prefix() -> None:
+    model = RuleModel(sequences="[['place(red_box, rack)']]", next_skills=["['pick(red_box)']"], scores={"pick(red_box)": -1.0})
+    feasibility = SymbolicFeasibility()
+    result = LookaheadPlanner(LookaheadOptions(), "hybrid").plan(context(model, feasibility))
+    # the first shot places a box that is not held (infeasible), the greedy step picks, the second
+    # shot, from the prefix, completes the plan
+    assert model.requests[:3] == ["shooting", "next", "score"]
+    assert [str(c) for c in result.skeleton] == ["pick(red_box)", "place(red_box, rack)"]
+    assert feasibility.calls[-1] == ["pick(red_box)", "place(red_box, rack)"]
+
+
+def test_planning_fails_after_the_depth_budget() -> None:
+    model = RuleModel(next_skills=["['pick(blue_box)']"], scores={"pick(blue_box)": -1.0})
+    result = LookaheadPlanner(LookaheadOptions(max_depth=3), "greedy-search").plan(context(model, SymbolicFeasibility()))
+    assert not result.found and "within 3 skills" in result.failure and len(result.skeleton) == 3
