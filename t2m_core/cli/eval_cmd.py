@@ -1,0 +1,69 @@
+"""``t2m eval``: the episode grid of planners × tasks × seeds (a thin layer over :mod:`t2m_core.evaluation`)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from t2m_core.errors import T2MError
+
+
+def evaluate(
+    out: Annotated[Path, typer.Option("--out", help="Evaluation directory (one run directory per episode, the tables).")],
+    planners: Annotated[str, typer.Option("--planners", help="Comma-separated task planners.")] = "hybrid,shooting,greedy-search,saycan-gs,innermono-gs",
+    tasks: Annotated[str, typer.Option("--tasks", help="Comma-separated task ids, or all.")] = "all",
+    seeds: Annotated[str, typer.Option("--seeds", help="Seed indices: 0-9 or 0,3,5 (base seed = index x 1000).")] = "0-9",
+    workers: Annotated[int, typer.Option("--workers", min=1, help="Parallel episodes.")] = 1,
+    overrides: Annotated[list[str] | None, typer.Option("--set", help="Config override for every episode (repeatable).")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the results table as JSON on stdout.")] = False,
+) -> None:
+    """Run (or finish running) every episode of the grid and write results.md / .json / .csv and a
+    plot of success per task and planner beside the paper's figures."""
+    from rich.console import Console
+
+    from t2m_core.evaluation import grid, run_grid, summarise, write_tables
+    from t2m_core.registry import get_registry
+    from t2m_core.tasks import task_ids
+
+    registry = get_registry()
+    planner_names = [registry.get("task_planner", p.strip()).name for p in planners.split(",") if p.strip()]
+    task_list = list(task_ids()) if tasks == "all" else [t.strip() for t in tasks.split(",") if t.strip()]
+    unknown = [t for t in task_list if t not in task_ids()]
+    if unknown:
+        raise T2MError(f"unknown task(s) {', '.join(unknown)}", f"use task ids from `t2m tasks`: {', '.join(task_ids())}")
+    episodes = grid(planner_names, task_list, _seed_indices(seeds))
+    console = Console(stderr=True)
+    out.mkdir(parents=True, exist_ok=True)
+
+    def show(episode, result) -> None:
+        verdict = "[green]success[/]" if result["success"] else f"[red]{result['failure_type']}[/]"
+        console.print(f"{episode.planner} {episode.task} seed {episode.seed_index}: {verdict} ({result['timings']['total']:.0f} s)")
+
+    results = run_grid(episodes, out, overrides or [], workers=workers, on_result=show)
+    rows = summarise(results)
+    write_tables(rows, out)
+    console.print((out / "results.md").read_text(), highlight=False)
+    if as_json:
+        typer.echo(json.dumps(rows, indent=2))
+
+
+def _seed_indices(text: str) -> list[int]:
+    try:
+        if "-" in text:
+            low, high = (int(x) for x in text.split("-"))
+            values = list(range(low, high + 1))
+        else:
+            values = [int(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise T2MError(f"cannot read --seeds {text!r}", "write a range like 0-9 or a list like 0,3,5") from None
+    if not values or min(values) < 0:
+        raise T2MError(f"--seeds {text!r} names no seed or a negative one", "seed indices start at 0")
+    return values
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``t2m eval`` to the root app."""
+    app.command("eval")(evaluate)

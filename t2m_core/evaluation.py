@@ -1,0 +1,181 @@
+"""The evaluation grid behind ``t2m eval`` (docs/guide/planners.md#evaluating-planners).
+
+One episode per (planner, task, seed), each in its own run directory ``OUT/<planner>/<task>/seed<N>``.
+The grid is resumable: an episode whose ``result.json`` exists and was not interrupted is kept; any
+other is run again. Episodes run in local worker processes. Base seeds are spaced
+:data:`SEED_SPACING` apart so that no two episodes of a task share an accepted scene (a reset walks
+from its base seed to the first accepted candidate).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from collections import defaultdict
+from collections.abc import Callable, Sequence
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from t2m_core.atomic_files import write_bytes_atomic, write_json_atomic, write_text_atomic
+
+SEED_SPACING = 1000
+"""Base seed of seed index s: s × 1000 (resets reject at most a few hundred candidates)."""
+PAPER_SUCCESS = {"hybrid": 0.82, "best prior language planner": 0.13}
+"""The paper's overall success rates on the suite (Text2Motion; the best earlier language planner)."""
+
+
+@dataclass(frozen=True)
+class Episode:
+    """One cell of the grid."""
+
+    planner: str
+    task: str
+    seed_index: int
+
+    @property
+    def seed(self) -> int:
+        return self.seed_index * SEED_SPACING
+
+    def directory(self, out: Path) -> Path:
+        return out / self.planner / self.task / f"seed{self.seed_index}"
+
+
+def grid(planners: Sequence[str], tasks: Sequence[str], seeds: Sequence[int]) -> list[Episode]:
+    """Every episode, planner-major."""
+    return [Episode(p, t, s) for p in planners for t in tasks for s in seeds]
+
+
+def finished(episode: Episode, out: Path) -> dict[str, Any] | None:
+    """The episode's result if it ran to its end, else ``None``."""
+    path = episode.directory(out) / "result.json"
+    try:
+        result = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return None if result.get("interrupted") else result
+
+
+def run_grid(
+    episodes: Sequence[Episode],
+    out: Path,
+    base_overrides: Sequence[str],
+    *,
+    workers: int = 1,
+    on_result: Callable[[Episode, dict[str, Any]], None] | None = None,
+) -> dict[Episode, dict[str, Any]]:
+    """Run every unfinished episode; return every episode's result."""
+    results = {e: r for e in episodes if (r := finished(e, out)) is not None}
+    pending = [e for e in episodes if e not in results]
+    if workers <= 1:
+        for episode in pending:
+            results[episode] = _run_one(episode, out, list(base_overrides))
+            if on_result:
+                on_result(episode, results[episode])
+        return results
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        running = {pool.submit(_run_one, e, out, list(base_overrides)): e for e in pending}
+        while running:
+            done, _ = wait(running, return_when=FIRST_COMPLETED)
+            for future in done:
+                episode = running.pop(future)
+                results[episode] = future.result()
+                if on_result:
+                    on_result(episode, results[episode])
+    return results
+
+
+def _run_one(episode: Episode, out: Path, overrides: list[str]) -> dict[str, Any]:
+    from t2m_core.config.resolve import resolve_config
+    from t2m_core.episode import run_episode
+    from t2m_core.registry import get_registry
+
+    flags = {"planner": episode.planner, "task": episode.task, "seed": episode.seed}
+    config = resolve_config(flags=flags, overrides=overrides, registry=get_registry())
+    directory = episode.directory(out)
+    if directory.exists():  # an interrupted attempt: start its records afresh
+        for name in ("plan_tree.jsonl", "transcript.jsonl"):
+            (directory / name).unlink(missing_ok=True)
+    return run_episode(config, directory).as_dict()
+
+
+# --------------------------------------------------------------------------------------------------
+# The results table
+# --------------------------------------------------------------------------------------------------
+
+COLUMNS = ("planner", "task", "episodes", "success", "planning_failures", "execution_failures", "subgoal_completion",
+           "llm_calls", "seconds_median", "seconds_p90", "llm_seconds", "stap_seconds", "simulation_seconds")
+
+
+def summarise(results: dict[Episode, dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per (planner, task) and one ``all`` row per planner."""
+    import numpy as np
+
+    groups: dict[tuple[str, str], list[dict[str, Any]]] = defaultdict(list)
+    for episode, result in results.items():
+        groups[(episode.planner, episode.task)].append(result)
+        groups[(episode.planner, "all")].append(result)
+    rows = []
+    for (planner, task), items in sorted(groups.items(), key=lambda kv: (kv[0][0], kv[0][1] == "all", kv[0][1])):
+        seconds = np.array([r["timings"]["total"] for r in items])
+        rows.append({
+            "planner": planner,
+            "task": task,
+            "episodes": len(items),
+            "success": round(float(np.mean([r["success"] for r in items])), 3),
+            "planning_failures": sum(r["failure_type"] == "planning_failure" for r in items),
+            "execution_failures": sum(r["failure_type"] == "execution_failure" for r in items),
+            "subgoal_completion": round(float(np.mean([r["subgoal_completion"] for r in items])), 3),
+            "llm_calls": round(float(np.mean([r["llm_calls"] for r in items])), 1),
+            "seconds_median": round(float(np.median(seconds)), 1),
+            "seconds_p90": round(float(np.percentile(seconds, 90)), 1),
+            "llm_seconds": round(float(np.median([r["timings"]["language_model"] for r in items])), 1),
+            "stap_seconds": round(float(np.median([r["timings"]["feasibility"] for r in items])), 1),
+            "simulation_seconds": round(float(np.median([r["timings"]["simulation"] for r in items])), 1),
+        })
+    return rows
+
+
+def write_tables(rows: list[dict[str, Any]], out: Path) -> None:
+    """``results.json``, ``results.csv``, ``results.md`` and ``success.png`` in ``out``."""
+    write_json_atomic(out / "results.json", {"rows": rows, "paper": PAPER_SUCCESS})
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=COLUMNS)
+    writer.writeheader()
+    writer.writerows(rows)
+    write_text_atomic(out / "results.csv", buffer.getvalue())
+    lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
+    lines += ["| " + " | ".join(str(row[c]) for c in COLUMNS) + " |" for row in rows]
+    lines.append("")
+    lines.append(f"Paper (overall success): Text2Motion {PAPER_SUCCESS['hybrid']:.0%}, best prior language planner "
+                 f"{PAPER_SUCCESS['best prior language planner']:.0%}.")
+    write_text_atomic(out / "results.md", "\n".join(lines) + "\n")
+    _plot(rows, out / "success.png")
+
+
+def _plot(rows: list[dict[str, Any]], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    planners = sorted({r["planner"] for r in rows})
+    tasks = [t for t in dict.fromkeys(r["task"] for r in rows) if t != "all"] + ["all"]
+    value = {(r["planner"], r["task"]): r["success"] for r in rows}
+    figure, axis = plt.subplots(figsize=(1.2 * len(tasks) + 3, 4))
+    width = 0.8 / max(len(planners), 1)
+    for i, planner in enumerate(planners):
+        axis.bar(np.arange(len(tasks)) + i * width, [value.get((planner, t), 0.0) for t in tasks], width, label=planner)
+    axis.axhline(PAPER_SUCCESS["hybrid"], color="black", linestyle="--", linewidth=1, label="paper: Text2Motion 82 %")
+    axis.axhline(PAPER_SUCCESS["best prior language planner"], color="grey", linestyle=":", linewidth=1, label="paper: best prior 13 %")
+    axis.set_xticks(np.arange(len(tasks)) + 0.4 - width / 2, tasks)
+    axis.set_ylabel("success rate")
+    axis.set_ylim(0, 1.05)
+    axis.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1, 1))
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=90, bbox_inches="tight")
+    plt.close(figure)
+    write_bytes_atomic(path, buffer.getvalue())

@@ -1,0 +1,46 @@
+"""The evaluation grid: spaced seeds, resuming, the results table."""
+
+from __future__ import annotations
+
+import json
+
+from t2m_core.evaluation import SEED_SPACING, Episode, finished, grid, summarise, write_tables
+
+
+def result(success: bool, failure_type: str | None, seconds: float, interrupted: bool = False) -> dict:
+    return {"success": success, "failure_type": failure_type, "subgoal_completion": 1.0 if success else 0.5, "llm_calls": 4,
+            "interrupted": interrupted, "timings": {"total": seconds, "language_model": seconds / 2, "feasibility": 1.0, "simulation": 2.0}}
+
+
+def test_the_grid_spaces_base_seeds_and_names_a_directory_per_episode(tmp_path) -> None:
+    episodes = grid(["hybrid", "shooting"], ["task0", "task1"], [0, 1, 2])
+    assert len(episodes) == 12 and len({e.directory(tmp_path) for e in episodes}) == 12
+    assert [e.seed for e in episodes[:3]] == [0, SEED_SPACING, 2 * SEED_SPACING]
+
+
+def test_only_episodes_that_ran_to_their_end_count_as_finished(tmp_path) -> None:
+    done, killed, torn = Episode("hybrid", "task0", 0), Episode("hybrid", "task0", 1), Episode("hybrid", "task0", 2)
+    for episode, content in ((done, json.dumps(result(True, None, 3.0))), (killed, json.dumps(result(False, None, 1.0, True))), (torn, "{")):
+        episode.directory(tmp_path).mkdir(parents=True)
+        (episode.directory(tmp_path) / "result.json").write_text(content)
+    assert finished(done, tmp_path)["success"] is True
+    assert finished(killed, tmp_path) is None and finished(torn, tmp_path) is None
+    assert finished(Episode("hybrid", "task0", 3), tmp_path) is None
+
+
+def test_the_table_counts_success_and_failure_types_per_task_and_overall(tmp_path) -> None:
+    results = {
+        Episode("hybrid", "task0", 0): result(True, None, 10.0),
+        Episode("hybrid", "task0", 1): result(False, "planning_failure", 20.0),
+        Episode("hybrid", "task1", 0): result(False, "execution_failure", 30.0),
+        Episode("hybrid", "task1", 1): result(True, None, 40.0),
+    }
+    rows = {(r["planner"], r["task"]): r for r in summarise(results)}
+    assert rows[("hybrid", "task0")]["success"] == 0.5 and rows[("hybrid", "task0")]["planning_failures"] == 1
+    overall = rows[("hybrid", "all")]
+    assert (overall["episodes"], overall["success"], overall["execution_failures"]) == (4, 0.5, 1)
+    assert overall["seconds_median"] == 25.0 and overall["subgoal_completion"] == 0.75
+    write_tables(list(rows.values()), tmp_path)
+    assert "| hybrid | all | 4 | 0.5 |" in (tmp_path / "results.md").read_text()
+    assert (tmp_path / "success.png").read_bytes()[:4] == b"\x89PNG"
+    assert (tmp_path / "results.csv").read_text().splitlines()[0].startswith("planner,task,episodes,success")
