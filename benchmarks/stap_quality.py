@@ -1,0 +1,86 @@
+"""Feasibility planning against the physics: each task's reference skeleton executed closed loop.
+
+    python benchmarks/stap_quality.py --json OUT [--planners policy-cem,policy,random-cem] [--tasks all]
+        [--seeds 0-9] [--population N]
+
+For every planner, task and seed: reset MuJoCo to the task's scene (base seed = index × 1000), plan
+the task's reference skeleton, execute it closed loop (re-planning the remaining skills after every
+executed one) and record whether every skill succeeded, whether the task's goal holds, the first
+plan's predicted p_success (for calibration), and the time per plan. Prints success per task and
+overall for each planner, and a reliability table of predicted p_success against realised success.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--json", dest="json_out", required=True)
+    parser.add_argument("--planners", default="policy-cem,policy,random-cem")
+    parser.add_argument("--tasks", default="all")
+    parser.add_argument("--seeds", default="0-9")
+    parser.add_argument("--population", type=int, default=None, help="override the CEM/shooting population")
+    parser.add_argument("--sim", default="mujoco")
+    args = parser.parse_args()
+
+    from t2m_core.atomic_files import write_json_atomic
+    from t2m_core.closed_loop import execute_closed_loop
+    from t2m_core.domain.goals import goal_satisfied_full
+    from t2m_core.evaluation import SEED_SPACING
+    from t2m_core.registry import get_registry
+    from t2m_core.tasks import load_task, task_ids
+
+    registry = get_registry()
+    tasks = list(task_ids()) if args.tasks == "all" else args.tasks.split(",")
+    low, _, high = args.seeds.partition("-")
+    seeds = range(int(low), int(high or low) + 1)
+    simulator = registry.create("simulator", args.sim)
+    skills = registry.create("skill_library", "tableenv")
+    report: dict = {"simulator": args.sim, "planners": {}}
+    for planner_name in args.planners.split(","):
+        options = {"population": args.population} if args.population and planner_name != "policy" else {}
+        planner = registry.create("feasibility_planner", planner_name, options)
+        episodes = []
+        for task_id in tasks:
+            task = load_task(task_id)
+            for seed in seeds:
+                reset = simulator.reset(task, seed=seed * SEED_SPACING)
+                started = time.perf_counter()
+                result = execute_closed_loop(simulator, planner, skills, task.reference_skeleton, reset.state.object_names)
+                elapsed = time.perf_counter() - started
+                reached = result.success and bool(goal_satisfied_full(task.goal, simulator.geometric_state(), task.initial_state))
+                episodes.append({
+                    "task": task_id, "seed": seed, "success": reached, "skills_succeeded": sum(s.result.success for s in result.steps),
+                    "failure": next((f"{s.call}: {s.result.failure}" for s in result.steps if not s.result.success), None),
+                    "predicted_p_success": float(result.initial_plan.p_success) if result.initial_plan else None,
+                    "seconds_per_plan": elapsed / max(len(result.steps), 1),
+                })
+                print(f"{planner_name:15s} {task_id} seed {seed}: {'success' if reached else episodes[-1]['failure'] or 'goal not reached'}", flush=True)
+        per_task = {t: float(np.mean([e["success"] for e in episodes if e["task"] == t])) for t in tasks}
+        overall = float(np.mean([e["success"] for e in episodes]))
+        print(f"{planner_name}: overall {overall:.0%}; " + ", ".join(f"{t} {v:.0%}" for t, v in per_task.items()))
+        report["planners"][planner_name] = {"overall": overall, "per_task": per_task, "episodes": episodes,
+                                            "reliability": reliability(episodes)}
+    simulator.close()
+    write_json_atomic(args.json_out, report)
+
+
+def reliability(episodes: list[dict]) -> list[dict]:
+    """Predicted p_success of the first plan against realised success, in bins of 0.2."""
+    rows = []
+    for low in np.arange(0.0, 1.0, 0.2):
+        chosen = [e for e in episodes if e["predicted_p_success"] is not None and low <= e["predicted_p_success"] < low + 0.2 + (low >= 0.8) * 1e-9]
+        if chosen:
+            rows.append({"bin_low": round(float(low), 1), "count": len(chosen),
+                         "predicted": float(np.mean([e["predicted_p_success"] for e in chosen])),
+                         "realised": float(np.mean([e["success"] for e in chosen]))})
+    return rows
+
+
+if __name__ == "__main__":
+    main()
