@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from types import SimpleNamespace
 from typing import Any
@@ -82,10 +83,14 @@ class EveryKind:
 
 class ScriptedSimulator:
     """A simulator without physics: resets to the sampled scene of a task and seed, and reports every
-    primitive with the scripted outcome (``success``, else a ``"collision"``) without moving anything."""
+    primitive with the scripted outcome without moving anything: ``success`` is a bool, or a rule of
+    the ``(4,)`` action; a failure is a ``"collision"``. After ``interrupt_after`` executions it raises
+    ``KeyboardInterrupt`` (a killed run)."""
 
-    def __init__(self, success: bool) -> None:
+    def __init__(self, success: bool | Callable[[Any], bool], interrupt_after: int | None = None) -> None:
         self.success = success
+        self.interrupt_after = interrupt_after
+        self.executions = 0
         self.state: Any = None
         self.objects: tuple[str, ...] = ()
 
@@ -94,14 +99,19 @@ class ScriptedSimulator:
         from t2m_core.protocols import ResetResult
 
         sampled = sample_task(task, seed)
-        self.state, self.objects = sampled.state, task.objects
+        self.state, self.objects = sampled.state, tuple(task.objects)
         return ResetResult(sampled.state, self.observation(), sampled.accepted_seed, sampled.rejections)
 
     def execute(self, primitive: str, arguments: Any, action: Any) -> Any:
+        import numpy as np
+
         from t2m_core.protocols import PrimitiveResult
 
-        failure = None if self.success else "collision"
-        return PrimitiveResult(self.success, not self.success, failure, self.state, self.observation())
+        self.executions += 1
+        if self.interrupt_after is not None and self.executions > self.interrupt_after:
+            raise KeyboardInterrupt
+        success = bool(self.success(np.asarray(action))) if callable(self.success) else self.success
+        return PrimitiveResult(success, not success, None if success else "collision", self.state, self.observation())
 
     def get_state(self) -> Any:
         return self.state

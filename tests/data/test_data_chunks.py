@@ -9,7 +9,7 @@ from t2m_core.data.chunks import ChunkSpec, DataGenerationError, generate_chunk
 from t2m_core.data.records import INVALID_GROUNDING, OBJECT_VOCABULARY
 from t2m_core.data.scenes import HOOK_MASS, draw_grounding, symbolic_states
 from t2m_core.domain.observation import normalize
-from tests.data.simulator_doubles import ScriptedSimulator
+from tests.core.plugin_doubles import ScriptedSimulator
 
 
 def _same(a, b) -> None:
@@ -33,7 +33,7 @@ def test_a_chunk_is_the_same_in_a_fresh_simulator_and_after_other_work() -> None
 
 
 def test_balancing_keeps_at_least_40_percent_successes_when_successes_are_rare() -> None:
-    simulator = ScriptedSimulator(rule=lambda action: action[0] > 0.9)  # about 5 % of uniform draws
+    simulator = ScriptedSimulator(lambda action: action[0] > 0.9)  # about 5 % of uniform draws
     transitions, stats = generate_chunk(ChunkSpec("pick", "train", 0, 20, sampler="uniform"), simulator)
     assert len(transitions) == 20
     assert transitions.success.sum() == 8  # ceil(0.4 * 20): failures stop being kept at 12
@@ -42,14 +42,14 @@ def test_balancing_keeps_at_least_40_percent_successes_when_successes_are_rare()
 
 
 def test_balancing_keeps_every_success_when_they_are_common() -> None:
-    simulator = ScriptedSimulator(rule=lambda action: action[0] > -0.8)  # about 90 %
+    simulator = ScriptedSimulator(lambda action: action[0] > -0.8)  # about 90 %
     transitions, stats = generate_chunk(ChunkSpec("pick", "train", 0, 30, sampler="uniform"), simulator)
     assert stats.discarded_failures == 0
     assert transitions.success.sum() == int((transitions.action[:, 0] > -0.8).sum())
 
 
 def test_a_simulator_that_never_succeeds_stops_with_a_clear_error() -> None:
-    simulator = ScriptedSimulator(rule=lambda action: False)
+    simulator = ScriptedSimulator(lambda action: False)
     with pytest.raises(DataGenerationError, match="draws for"):
         generate_chunk(ChunkSpec("pick", "train", 0, 5, sampler="uniform"), simulator)
 

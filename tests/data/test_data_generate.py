@@ -10,7 +10,7 @@ import pytest
 from t2m_core.data import generate
 from t2m_core.data.generate import DatasetJob, generate_dataset, load_split
 from t2m_core.data.records import ShardError, read_shard
-from tests.data.simulator_doubles import ScriptedSimulator
+from tests.core.plugin_doubles import ScriptedSimulator
 
 
 def _job(tmp_path, size=12, chunk_size=4) -> DatasetJob:
