@@ -10,7 +10,7 @@ import numpy as np
 
 from t2m_core.domain.objects import object_spec
 from t2m_core.domain.skills import SkillCall
-from t2m_core.language.prompts import next_skill_query, shooting_query
+from t2m_core.language.prompts import GOAL_QUERY, next_skill_query, shooting_query
 from t2m_core.protocols import LanguageModelCapabilities, PlanResult
 
 
@@ -18,7 +18,9 @@ class RuleModel:
     """Answers shooting prompts with ``sequences``, next-skill prompts with ``next_skills`` (one list
     per greedy step, the last repeated), and scores candidates from ``scores`` (default −5 nats)."""
 
-    def __init__(self, sequences: str = "[]", next_skills: Sequence[str] = ("[]",), scores: Mapping[str, float] | None = None) -> None:
+    def __init__(self, sequences: str = "[]", next_skills: Sequence[str] = ("[]",), scores: Mapping[str, float] | None = None,
+                 goal: str = "[]") -> None:
+        self.goal = goal
         self.sequences = sequences
         self.next_skills = list(next_skills)
         self.scores = dict(scores or {})
@@ -33,6 +35,9 @@ class RuleModel:
             self.requests.append("next")
             answer = self.next_skills[0] if len(self.next_skills) == 1 else self.next_skills.pop(0)
             return [answer] * n
+        if prompt.endswith(GOAL_QUERY):
+            self.requests.append("goal")
+            return [self.goal] * n
         self.requests.append("other")
         return ["[]"] * n
 

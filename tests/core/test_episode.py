@@ -1,0 +1,85 @@
+"""``t2m run`` end to end through doubles of the simulator, language model and feasibility planner:
+the run directory, the failure types and the exit status (docs/guide/run-records.md)."""
+
+from __future__ import annotations
+
+import json
+
+import yaml
+from typer.testing import CliRunner
+
+from t2m_core.cli.main import app
+from t2m_core.hookspecs import hookimpl
+from t2m_core.plugin_specs import FeasibilityPlannerSpec, LanguageModelSpec, SimulatorSpec, SkillLibrarySpec
+from tests.core.plugin_doubles import ScriptedSimulator
+from tests.plugins.t2m_planners.planner_doubles import RuleModel, SymbolicFeasibility
+
+runner = CliRunner()
+SELECTION = ["--sim", "scripted", "--llm", "rule", "--set", "skills.name=none", "--set", "feasibility_planner.name=symbolic",
+             "--set", "output.video=false", "--task", "task0", "--seed", "0"]
+SOLUTION = "[['pick(yellow_box)', 'place(yellow_box, rack)', 'pick(cyan_box)', 'place(cyan_box, rack)', 'pick(blue_box)', 'place(blue_box, rack)']]"
+GOAL = "[['on(yellow_box, rack)', 'on(cyan_box, rack)', 'on(blue_box, rack)']]"
+
+
+def install(t2m_plugin, model: RuleModel) -> None:
+    import t2m_planners.hooks
+    import t2m_scene_truth.hooks
+
+    class Doubles:
+        @hookimpl
+        def t2m_register_simulators(self):
+            return [SimulatorSpec(name="scripted", factory=lambda _o: ScriptedSimulator(success=True), summary="double")]
+
+        @hookimpl
+        def t2m_register_language_models(self):
+            return [LanguageModelSpec(name="rule", factory=lambda _o: model, summary="double")]
+
+        @hookimpl
+        def t2m_register_skills(self):
+            return [SkillLibrarySpec(name="none", factory=lambda _o: {}, summary="double")]
+
+        @hookimpl
+        def t2m_register_feasibility_planners(self):
+            return [FeasibilityPlannerSpec(name="symbolic", factory=lambda _o: SymbolicFeasibility(), summary="double")]
+
+    t2m_plugin(Doubles(), name="doubles")
+    t2m_plugin(t2m_planners.hooks, name="planners")
+    t2m_plugin(t2m_scene_truth.hooks, name="scene-truth")
+
+
+def test_a_run_records_everything_and_fails_when_the_simulated_goal_does_not_hold(t2m_registry, t2m_plugin, tmp_path) -> None:
+    install(t2m_plugin, RuleModel(goal=GOAL, sequences=SOLUTION))
+    result = runner.invoke(app, ["run", *SELECTION, "--out", str(tmp_path), "--json"])
+    assert result.exit_code == 1, result.output  # the double never moves a box: the goal does not hold
+    record = json.loads((tmp_path / "result.json").read_text())
+    assert record["format"] == "t2m-run/1" and record["success"] is False
+    assert record["failure_type"] == "execution_failure" and "goal does not hold" in record["failure"]
+    assert sorted(record["predicted_goal"][0]) == ["on(blue_box, rack)", "on(cyan_box, rack)", "on(yellow_box, rack)"]
+    assert len(record["plan"]) == 6 and len(record["executed"]) == 6 and all(step["success"] for step in record["executed"])
+    assert record["llm_calls"] == 2 and 0 < record["subgoal_completion"] < 1
+    assert yaml.safe_load((tmp_path / "config.yaml").read_text())["task_planner"]["name"] == "hybrid"
+    events = [json.loads(line)["event"] for line in (tmp_path / "plan_tree.jsonl").read_text().splitlines()]
+    assert events[0] == "goal" and "shooting_candidate" in events and events.count("executed") == 6
+    transcript = [json.loads(line) for line in (tmp_path / "transcript.jsonl").read_text().splitlines()]
+    assert [r["kind"] for r in transcript] == ["complete", "complete"]
+    assert json.loads(result.stdout)["plan"] == record["plan"]
+
+
+def test_an_instruction_with_no_valid_goal_is_a_planning_failure_with_a_complete_record(t2m_registry, t2m_plugin, tmp_path) -> None:
+    install(t2m_plugin, RuleModel(goal="I cannot make a sandwich"))
+    result = runner.invoke(app, ["run", *SELECTION, "--instruction", "make me a sandwich", "--out", str(tmp_path)])
+    assert result.exit_code == 1
+    record = json.loads((tmp_path / "result.json").read_text())
+    assert record["failure_type"] == "planning_failure" and record["failure"].startswith("no valid goal prediction")
+    assert record["instruction"] == "make me a sandwich" and record["goal_source"] == "predicted"
+    assert record["executed"] == [] and (tmp_path / "transcript.jsonl").exists()
+
+
+def test_an_unwritable_run_directory_is_one_line_of_error(t2m_registry, t2m_plugin, tmp_path) -> None:
+    install(t2m_plugin, RuleModel(goal=GOAL))
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    result = runner.invoke(app, ["run", *SELECTION, "--out", str(blocker / "run")])
+    assert result.exit_code == 2 and "cannot write the run directory" in result.output
+    negative = runner.invoke(app, ["run", *SELECTION[:-2], "--seed", "-1", "--out", str(tmp_path / "x")])
+    assert negative.exit_code == 2 and "greater than or equal to 0" in negative.output
