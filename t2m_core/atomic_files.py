@@ -35,3 +35,22 @@ def write_bytes_atomic(path: Path | str, content: bytes) -> None:
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
         raise
+
+
+def ensure_writable_directory(directory: Path | str) -> Path:
+    """Create ``directory`` (with parents) and check that a file can be written there.
+
+    Raises:
+        T2MError: naming the directory and why, so a command fails before any work.
+    """
+    from t2m_core.errors import T2MError
+
+    directory = Path(directory)
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        probe = directory / ".t2m-write-test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as error:
+        raise T2MError(f"cannot write to {directory}: {error.strerror}", "choose a writable directory with --out") from None
+    return directory

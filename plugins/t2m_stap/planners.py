@@ -47,21 +47,35 @@ def _empty_plan(observation: torch.Tensor) -> PlanResult:
     )
 
 
-class PolicyRollout:
-    """``policy``: one deterministic rollout of the skills' policies; reports its Q product."""
-
-    def __init__(self, options: PolicyOptions | None = None) -> None:
-        self.options = options or PolicyOptions()
+class FeasibilityPlannerBase:
+    """What every planner here does around its search: check the observation, prepare the skeleton's
+    steps and thresholds, and turn the chosen trajectory into a :class:`PlanResult`."""
 
     def plan(self, observation: np.ndarray, skeleton: Sequence[SkillCall], skills: Mapping[str, Any], object_names: Sequence[str]) -> PlanResult:
         start = _observation(observation)
         if not skeleton:
             return _empty_plan(start)
         steps = prepare_steps(skeleton, skills, object_names)
-        return plan_result(rollout(steps, start), 0, thresholds_of(steps))
+        thresholds = thresholds_of(steps)
+        rollouts, index = self.search(start, steps, thresholds)
+        return plan_result(rollouts, index, thresholds)
+
+    def search(self, start: torch.Tensor, steps: list[Step], thresholds: torch.Tensor) -> tuple[Rollouts, int]:
+        """The rollouts holding the chosen trajectory, and its index."""
+        raise NotImplementedError
 
 
-class CrossEntropyMethod:
+class PolicyRollout(FeasibilityPlannerBase):
+    """``policy``: one deterministic rollout of the skills' policies; reports its Q product."""
+
+    def __init__(self, options: PolicyOptions | None = None) -> None:
+        self.options = options or PolicyOptions()
+
+    def search(self, start: torch.Tensor, steps: list[Step], thresholds: torch.Tensor) -> tuple[Rollouts, int]:
+        return rollout(steps, start), 0
+
+
+class CrossEntropyMethod(FeasibilityPlannerBase):
     """``policy-cem`` (``initial="policy"``, the default feasibility planner) and ``random-cem``
     (``initial="random"``): the cross-entropy method over the whole skeleton's actions."""
 
@@ -69,13 +83,8 @@ class CrossEntropyMethod:
         self.options = options or CEMOptions()
         self.initial = initial
 
-    def plan(self, observation: np.ndarray, skeleton: Sequence[SkillCall], skills: Mapping[str, Any], object_names: Sequence[str]) -> PlanResult:
+    def search(self, start: torch.Tensor, steps: list[Step], thresholds: torch.Tensor) -> tuple[Rollouts, int]:
         options = self.options
-        start = _observation(observation)
-        if not skeleton:
-            return _empty_plan(start)
-        steps = prepare_steps(skeleton, skills, object_names)
-        thresholds = thresholds_of(steps)
         generator = torch.Generator().manual_seed(options.seed)
         horizon = len(steps)
         if self.initial == "policy":
@@ -104,10 +113,10 @@ class CrossEntropyMethod:
             if options.sigma_mode == "adaptive":
                 sigma = elites.std(dim=0, unbiased=False).clamp_min(1e-4) if len(elites) > 1 else sigma
         assert best is not None
-        return plan_result(best[1], best[2], thresholds)
+        return best[1], best[2]
 
 
-class Shooting:
+class Shooting(FeasibilityPlannerBase):
     """``policy-shooting`` (``initial="policy"``: the policies' actions at every predicted state plus
     N(0, σ²) noise) and ``random-shooting`` (uniform actions): one pass, the best trajectory wins."""
 
@@ -115,13 +124,8 @@ class Shooting:
         self.options = options or ShootingOptions()
         self.initial = initial
 
-    def plan(self, observation: np.ndarray, skeleton: Sequence[SkillCall], skills: Mapping[str, Any], object_names: Sequence[str]) -> PlanResult:
+    def search(self, start: torch.Tensor, steps: list[Step], thresholds: torch.Tensor) -> tuple[Rollouts, int]:
         options = self.options
-        start = _observation(observation)
-        if not skeleton:
-            return _empty_plan(start)
-        steps = prepare_steps(skeleton, skills, object_names)
-        thresholds = thresholds_of(steps)
         generator = torch.Generator().manual_seed(options.seed)
         total = options.samples(len(steps))
         best: tuple[float, Rollouts, int] | None = None
@@ -137,7 +141,7 @@ class Shooting:
             if best is None or float(scores[top]) > best[0]:
                 best = (float(scores[top]), rollouts, top)
         assert best is not None
-        return plan_result(best[1], best[2], thresholds)
+        return best[1], best[2]
 
 
 def policy_cem(options: CEMOptions) -> CrossEntropyMethod:
@@ -160,4 +164,4 @@ def policy_only(options: PolicyOptions) -> PolicyRollout:
     return PolicyRollout(options)
 
 
-__all__ = ["CrossEntropyMethod", "PolicyRollout", "SamplingOptions", "Shooting", "Step"]
+__all__ = ["CrossEntropyMethod", "FeasibilityPlannerBase", "PolicyRollout", "SamplingOptions", "Shooting"]

@@ -9,6 +9,7 @@ from typing import Annotated
 
 import typer
 
+from t2m_core.atomic_files import ensure_writable_directory
 from t2m_core.errors import T2MError
 
 
@@ -36,10 +37,7 @@ def datagen(
         raise T2MError(f"unknown skill {skill!r}", f"use one of: {', '.join(DATA_SKILLS)}, all")
     if split != "invalid":
         sim = get_registry().get("simulator", sim).name  # an unknown name fails here, with the choices
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as error:
-        raise T2MError(f"cannot create the dataset directory {out}: {error.strerror}", "choose a writable --out") from None
+    ensure_writable_directory(out)
     manifests = {}
     for name in skills:
         job = DatasetJob(out, name, split, size, chunk_size, seed, sampler, sim)

@@ -9,6 +9,7 @@ from typing import Annotated, Any
 
 import typer
 
+from t2m_core.atomic_files import ensure_writable_directory
 from t2m_core.errors import T2MError
 
 
@@ -42,7 +43,7 @@ def plan(
     task = load_task(config.task)
     calls = parse_skill_sequence(f"[{_quoted(skeleton)}]", task.objects)
     if out is not None:
-        _check_writable(out)
+        ensure_writable_directory(out)
     simulator = build_component(config, "simulator")
     try:
         skills = build_component(config, "skills")
@@ -84,16 +85,6 @@ def _quoted(skeleton: str) -> str:
     if not calls:
         raise T2MError("empty --skeleton", 'write e.g. --skeleton "pick(hook), pull(blue_box, hook)"')
     return ", ".join(repr(c) for c in calls)
-
-
-def _check_writable(out: Path) -> None:
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / ".write-test"
-        probe.write_text("")
-        probe.unlink()
-    except OSError as error:
-        raise T2MError(f"cannot write to --out {out}: {error.strerror}", "choose a writable directory") from None
 
 
 def _plan_rows(calls, plan) -> list[dict[str, Any]]:

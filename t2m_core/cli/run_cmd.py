@@ -9,7 +9,7 @@ from typing import Annotated, Any
 
 import typer
 
-from t2m_core.errors import T2MError
+from t2m_core.atomic_files import ensure_writable_directory
 
 
 def run(
@@ -36,7 +36,7 @@ def run(
     flags = {"planner": planner, "sim": sim, "llm": llm, "task": task_id, "seed": seed}
     config = resolve_config(config_files or (), flags=flags, overrides=overrides or (), registry=get_registry())
     directory = out or _default_directory(config.task, config.seed)
-    _check_writable(directory)
+    ensure_writable_directory(directory)
     console.print(f"[bold]{config.task}[/] seed {config.seed}: {config.task_planner.name if config.task_planner else '-'} planner, "
                   f"{config.language_model.name} language model, {config.simulator.name} -> {directory}")
     try:
@@ -79,16 +79,6 @@ def _default_directory(task: str, seed: int) -> Path:
     from t2m_core.settings import runs_dir
 
     return runs_dir() / f"{task}-seed{seed}-{time.strftime('%Y%m%d-%H%M%S')}"
-
-
-def _check_writable(directory: Path) -> None:
-    try:
-        directory.mkdir(parents=True, exist_ok=True)
-        probe = directory / ".write-test"
-        probe.write_text("")
-        probe.unlink()
-    except OSError as error:
-        raise T2MError(f"cannot write the run directory {directory}: {error.strerror}", "choose a writable --out") from None
 
 
 def register(app: typer.Typer) -> None:
