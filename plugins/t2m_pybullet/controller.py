@@ -26,6 +26,7 @@ from t2m_core.simulation import rules
 from t2m_core.simulation.backend import IKResult
 from t2m_core.simulation.kinematics import relative_yaw, rotation_error, wrist_seeds
 from t2m_core.simulation.robot import FINGER_OPEN, Q_HOME
+from t2m_pybullet.client import connect
 from t2m_pybullet.robot_model import RobotLinks, load_panda
 
 POSTURE_ITERATIONS = 100
@@ -57,10 +58,7 @@ class InverseKinematics:
     """PyBullet's IK of the EE link on a private kinematics-only robot (its own DIRECT client)."""
 
     def __init__(self) -> None:
-        import pybullet
-        from pybullet_utils import bullet_client
-
-        self.client = bullet_client.BulletClient(connection_mode=pybullet.DIRECT)
+        self.client = connect()
         self.robot: RobotLinks = load_panda(self.client)
         self._low = self.robot.joint_low + rules.JOINT_LIMIT_MARGIN
         self._high = self.robot.joint_high - rules.JOINT_LIMIT_MARGIN
@@ -94,7 +92,8 @@ class InverseKinematics:
         return np.array(solution[:7])
 
     def track(self, q: np.ndarray, position: np.ndarray, rotation: np.ndarray) -> np.ndarray:
-        """A few plain IK iterations from ``q`` (7,): a keyframe of a straight motion, clipped to the limits."""
+        """Plain IK warm-started from ``q`` (7,), at most :data:`TRACK_ITERATIONS`: a keyframe of a straight
+        motion, clipped to the limits."""
         solution = self._pybullet_ik(q, position, matrix_to_quat(rotation).tolist(), TRACK_ITERATIONS, None, TRACK_RESIDUAL)
         return np.clip(solution, self._low, self._high)
 

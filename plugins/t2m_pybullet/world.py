@@ -25,6 +25,7 @@ from t2m_core.simulation.kinematics import rotation_error
 from t2m_core.simulation.robot import ARM_TORQUE_LIMITS, FINGER_OPEN, Q_HOME
 from t2m_core.simulation.rules import TwistWatch
 from t2m_pybullet import contacts
+from t2m_pybullet.client import connect
 from t2m_pybullet.controller import ARM_POSITION_GAIN, ARM_VELOCITY_GAIN, InverseKinematics, SweepTorques
 from t2m_pybullet.robot_model import load_panda
 from t2m_pybullet.scene import build_scene
@@ -38,7 +39,7 @@ squeezes with about 10 N.)"""
 FINGER_SPEED = 0.2
 """m/s: the fastest a finger moves (the URDF's limit); faster, it slams 3 mm into an object in one step."""
 FINGER_COUPLING_FORCE = 100.0
-"""Newtons the gear constraint may apply to the second finger (more than the grip force it transmits)."""
+"""Newtons the gear constraint may apply to keep the fingers symmetric (more than the grip force)."""
 WELD_MAX_FORCE = 1000.0
 """Newtons the grasp constraint may apply (it holds a 0.1 kg object rigidly)."""
 IDENTITY_XYZW = np.array([0.0, 0.0, 0.0, 1.0])
@@ -93,11 +94,10 @@ class World(PhysicsBackend):
     """
 
     def __init__(self, object_names: tuple[str, ...], substeps: int, solver_iterations: int = 50) -> None:
+        self.client = client = connect()
         import pybullet
-        from pybullet_utils import bullet_client
 
         self._pybullet = pybullet
-        self.client = client = bullet_client.BulletClient(connection_mode=pybullet.DIRECT)
         client.setGravity(*GRAVITY)
         client.setPhysicsEngineParameter(
             fixedTimeStep=1.0 / 60.0, numSubSteps=int(substeps), numSolverIterations=int(solver_iterations),
@@ -106,9 +106,8 @@ class World(PhysicsBackend):
         )
         self.substeps = int(substeps)
         self.robot = load_panda(client)
-        # PyBullet ignores the URDF's mimic joint: one motor drives the first finger and a gear
-        # constraint makes the second follow it, so a closing jaw centres the object (two motors
-        # pressing against each other let it drift sideways)
+        # PyBullet ignores the URDF's mimic joint: a gear constraint keeps the fingers symmetric,
+        # so a closing jaw centres the object
         coupling = client.createConstraint(self.robot.body, self.robot.fingers[0], self.robot.body, self.robot.fingers[1],
                                            pybullet.JOINT_GEAR, [1.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
         client.changeConstraint(coupling, gearRatio=-1, erp=0.1, maxForce=FINGER_COUPLING_FORCE)
@@ -133,7 +132,7 @@ class World(PhysicsBackend):
         self._twist_watch = TwistWatch()
         self._link_names = {j: client.getJointInfo(self.robot.body, j)[12].decode() for j in range(client.getNumJoints(self.robot.body))}
         self._dofs = list(self.robot.dofs)
-        self.reset_robot()
+        self._home_robot()
         self._pristine = _SavedState(client)
 
     # --- time -------------------------------------------------------------------------------------
@@ -223,8 +222,10 @@ class World(PhysicsBackend):
         """Restore the freshly built simulation (no velocities, contacts or weld), set the arm to
         q_home directly (no simulation) and open the gripper (docs/guide/world.md#the-robot)."""
         self.release()
-        if hasattr(self, "_pristine"):
-            self._restore_state(self._pristine.id)
+        self._restore_state(self._pristine.id)
+        self._home_robot()
+
+    def _home_robot(self) -> None:
         for joint, angle in zip(self.robot.arm, Q_HOME, strict=True):
             self.client.resetJointState(self.robot.body, joint, float(angle), 0.0)
         for joint in self.robot.fingers:
