@@ -8,7 +8,9 @@ tokenizer merges the leading space into the next token. (llama-cpp-python 0.3.36
 log-probabilities are wrong, so they are not used.)
 
 A model file is loaded once per process and shared by every :class:`LocalLanguageModel` that names
-the same file and context settings.
+the same file and context settings. Its generation and scoring contexts share evaluated prompt
+prefixes with each other and with a disk cache (:mod:`t2m_llm_local.shared_prefix`), so the
+in-context part of a prompt is evaluated once per model, not once per query, context or process.
 """
 
 from __future__ import annotations
@@ -27,9 +29,12 @@ import numpy as np
 
 from t2m_core.errors import ModelFileError, T2MError
 from t2m_core.protocols import LanguageModelCapabilities
+from t2m_core.settings import cache_dir
 
 from t2m_llm_local.hooks import LocalModelOptions
-from t2m_llm_local.model_files import default_model_path
+from t2m_llm_local.model_files import embedded_model_path, model_digest
+from t2m_llm_local.prefix_cache import PrefixCache
+from t2m_llm_local.shared_prefix import GenerationSequence, PrefixSharing, in_context_bytes
 from t2m_llm_local.trie_scoring import TrieScorer
 
 log = logging.getLogger(__name__)
@@ -47,11 +52,21 @@ core instead: 2 threads then took 0.07 s on the same busy machine."""
 @dataclass
 class LoadedModel:
     """A process-wide llama.cpp model, the lock that serialises its use (its KV caches are shared
-    state) and its candidate scorer (a second context over the same weights, made on first use)."""
+    state), its generation sequence, the prefix sharing between its contexts and its candidate
+    scorer (a second context over the same weights, made on first use)."""
 
     llama: Any
     lock: threading.Lock
+    generation: GenerationSequence
+    sharing: PrefixSharing
     scorer: TrieScorer | None = None
+
+    def get_scorer(self) -> TrieScorer:
+        """The scorer, made on first use and sharing prefixes with the generation context."""
+        if self.scorer is None:
+            self.scorer = TrieScorer(self.llama)
+            self.sharing.add(self.scorer)
+        return self.scorer
 
 
 _MODELS: dict[tuple[Any, ...], LoadedModel] = {}
@@ -70,9 +85,20 @@ def _close_models() -> None:
         _MODELS.clear()
 
 
-def _load_llama(path: Path, n_ctx: int, n_threads: int, n_threads_batch: int, n_batch: int) -> LoadedModel:
+def prompt_state_cache(path: Path, on_disk: bool) -> PrefixCache:
+    """The prefix-state cache of the model file ``path``: on disk under
+    ``<cache_dir>/prompt-states`` (keyed by the file's sha256) or in memory only."""
+    import llama_cpp
+
+    engine = f"llama-cpp-python {llama_cpp.__version__}"
+    if not on_disk:
+        return PrefixCache("memory-only", engine, None)
+    return PrefixCache(model_digest(path), engine, cache_dir() / "prompt-states")
+
+
+def _load_llama(path: Path, n_ctx: int, n_threads: int, n_threads_batch: int, n_batch: int, prompt_cache: bool) -> LoadedModel:
     """The process-wide llama.cpp model for these settings, loaded on first use."""
-    key = (str(path), n_ctx, n_threads, n_threads_batch, n_batch)
+    key = (str(path), n_ctx, n_threads, n_threads_batch, n_batch, prompt_cache)
     with _MODELS_LOCK:
         if key not in _MODELS:
             os.environ.setdefault("OMP_WAIT_POLICY", WAIT_POLICY)
@@ -94,7 +120,9 @@ def _load_llama(path: Path, n_ctx: int, n_threads: int, n_threads_batch: int, n_
                 raise ModelFileError(
                     f"llama.cpp could not load {path}: {error}", hint="pass a valid GGUF file as model_path"
                 ) from error
-            _MODELS[key] = LoadedModel(llama, threading.Lock())
+            generation = GenerationSequence(llama)
+            sharing = PrefixSharing([generation], prompt_state_cache(path, prompt_cache))
+            _MODELS[key] = LoadedModel(llama, threading.Lock(), generation, sharing)
             log.info("loaded %s in %.2f s", path.name, time.perf_counter() - start)
         return _MODELS[key]
 
@@ -130,7 +158,7 @@ class LocalLanguageModel:
     def __init__(self, options: LocalModelOptions) -> None:
         self.options = options
         if options.model_path is None:
-            self.model_path = default_model_path()
+            self.model_path = embedded_model_path(options.model)
         else:
             self.model_path = Path(options.model_path).expanduser()
             if not self.model_path.is_file():
@@ -141,7 +169,7 @@ class LocalLanguageModel:
         threads = options.n_threads or default_threads()
         batch_threads = options.n_threads_batch or default_batch_threads()
         start = time.perf_counter()
-        self._loaded = _load_llama(self.model_path, options.n_ctx, threads, batch_threads, options.n_batch)
+        self._loaded = _load_llama(self.model_path, options.n_ctx, threads, batch_threads, options.n_batch, options.prompt_cache)
         self._llama, self._lock = self._loaded.llama, self._loaded.lock
         self.load_time_s = time.perf_counter() - start
         self._grammars: dict[str, Any] = {}
@@ -175,8 +203,12 @@ class LocalLanguageModel:
         self._check_length(prompt, max_tokens)
         samples = 1 if temperature == 0 else n
         texts = []
+        # tokenized as create_completion does, so the prepared prefix is the one it reuses
+        tokens = self._llama.tokenize(prompt.encode("utf-8"), add_bos=False, special=True)
+        in_context, _ = self._split_at_boundary(tokens, in_context_bytes(prompt))
         with self._lock:
             for sample in range(samples):
+                self._loaded.sharing.prepare(self._loaded.generation, tokens, in_context)
                 result = self._llama.create_completion(
                     prompt,
                     max_tokens=max_tokens,
@@ -244,11 +276,12 @@ class LocalLanguageModel:
         # predict each candidate's first token.
         boundary_in_suffix = boundary - prompt_bytes
         suffixes = [list(tokens[shared:]) for tokens in full]
+        in_context, _ = self._split_at_boundary(first[:shared], in_context_bytes(prompt))
         with self._lock:
-            if self._loaded.scorer is None:
-                self._loaded.scorer = TrieScorer(llama)
+            scorer = self._loaded.get_scorer()
+            self._loaded.sharing.prepare(scorer, first[:shared], in_context)
             try:
-                rows = self._loaded.scorer.log_probs(first[:shared], suffixes)
+                rows = scorer.log_probs(first[:shared], suffixes)
             except ValueError as error:  # the scorer's only ValueError here: prompt + candidates exceed n_ctx
                 raise T2MError(str(error), hint=CONTEXT_HINT) from error
         return [self._sum_candidate(suffix, row, boundary_in_suffix) for suffix, row in zip(suffixes, rows, strict=True)]

@@ -9,7 +9,9 @@ less than 30 calls of 3-4 tokens, which re-read all weights each time (measured 
 decoding each candidate on its own, with the same exact scores up to float rounding).
 
 The scorer owns a second llama.cpp context over the same loaded weights, so scoring never
-disturbs the generation context's cache, and keeps the last prompt's tokens cached as sequence 0.
+disturbs the generation context's cache, and keeps the last prompt's tokens cached as sequence 0;
+that sequence is shared with the generation context and the prompt-state cache through the
+:class:`~t2m_llm_local.shared_prefix.SequenceHolder` methods (:mod:`t2m_llm_local.shared_prefix`).
 """
 
 from __future__ import annotations
@@ -18,6 +20,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from t2m_llm_local.shared_prefix import export_sequence, import_sequence
 
 MAX_SEQUENCES = 64
 """Sequences of the scoring context: sequence 0 holds the prompt, each other one a candidate."""
@@ -65,6 +69,41 @@ class TrieScorer:
         """Free the context and batch (before the model they belong to)."""
         self._batch.close()
         self._context.close()
+
+    # ------------------------------------------------------------------------------------------
+    # sequence 0 as a SequenceHolder (t2m_llm_local.shared_prefix)
+    # ------------------------------------------------------------------------------------------
+
+    def held_tokens(self) -> Sequence[int]:
+        """The prompt tokens sequence 0 holds."""
+        return self._cached
+
+    def export_state(self) -> bytes:
+        """llama.cpp's state of sequence 0."""
+        return export_sequence(self._context.ctx)
+
+    def adopt_state(self, tokens: Sequence[int], data: bytes) -> bool:
+        """Replace sequence 0 with a state holding ``tokens``; False if llama.cpp refused it."""
+        self._context.kv_cache_seq_rm(-1, 0, -1)  # between calls only sequence 0 is in use
+        self._cached, self._last_logits = [], None
+        if not import_sequence(self._context.ctx, data):
+            return False
+        self._cached = list(tokens)
+        return True
+
+    def truncate(self, count: int) -> None:
+        """Keep the first ``count`` tokens of sequence 0."""
+        if count < len(self._cached):
+            self._context.kv_cache_seq_rm(0, count, -1)
+            self._cached, self._last_logits = self._cached[:count], None
+
+    def evaluate_alone(self, tokens: Sequence[int]) -> None:
+        """Evaluate ``tokens`` into an empty sequence 0 from position 0."""
+        self._context.kv_cache_seq_rm(-1, 0, -1)
+        self._cached, self._last_logits = [], None
+        self._hold_prompt(list(tokens))
+
+    # ------------------------------------------------------------------------------------------
 
     def log_probs(self, prompt: Sequence[int], continuations: Sequence[Sequence[int]]) -> list[np.ndarray]:
         """Per continuation, ``(len(continuation),) float64`` log-probabilities: entry ``i`` is

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Any, TypeVar
 
 from t2m_core.domain.goals import Goal, GoalError
+from t2m_core.domain.literals import format_string_list
 from t2m_core.domain.skills import SkillCall, SkillError
 from t2m_core.language import grammar as grammars
 from t2m_core.language import instruction_cues as cues
@@ -131,13 +132,20 @@ def query_next_skills(
     """Ask for K next skills; re-query while no list parses or no entry is valid.
 
     ``calls`` (constrained decoding only) limits the entries to those call strings, e.g. the
-    symbolically valid groundings of the described relationships.
+    symbolically valid groundings of the described relationships. The answer is then
+    ``min(K, n)`` of them in order, so with ``n <= K`` there is only one answer the grammar admits:
+    it is returned without asking the model (one attempt, its prompt never sent).
     """
     grammar = _grammar_for(
         model,
         constrained,
         lambda: grammars.skill_list_grammar(objects, k, typed=check_types, allow_stop=allow_stop, calls=calls),
     )
+    admitted = [*(calls or ()), *(["stop()"] if allow_stop else [])]
+    if grammar is not None and calls and len(admitted) <= k:
+        answer = format_string_list(admitted)
+        forced = parse_skill_candidates(answer, objects, k, check_types=check_types, allow_stop=allow_stop)
+        return forced, [Attempt(prompt, answer, None)]
 
     def read(answer: str) -> tuple[SkillCandidates, str | None]:
         try:

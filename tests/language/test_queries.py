@@ -69,7 +69,21 @@ def test_goal_query_with_the_instruction_constrains_and_completes_a_counted_goal
 
 
 def test_next_skill_query_over_given_calls_sends_their_grammar():
-    model = ScriptedModel(["['pick(hook)']"], grammar=True)
-    candidates, _ = query_next_skills(model, "ctx\nQ:", OBJECTS, calls=["pick(hook)", "pick(red_box)"])
-    assert [str(c) for c in candidates.calls] == ["pick(hook)"]
+    calls = ["pick(hook)", "pick(red_box)", "pick(blue_box)"]
+    model = ScriptedModel(["['pick(hook)', 'pick(blue_box)']"], grammar=True)
+    candidates, _ = query_next_skills(model, "ctx\nQ:", OBJECTS, 2, calls=calls)
+    assert [str(c) for c in candidates.calls] == ["pick(hook)", "pick(blue_box)"]
     assert 'pick-0-2 ::= q "pick(hook)" q' in model.grammars[0]
+
+
+def test_next_skill_query_over_at_most_k_calls_needs_no_model():
+    # the grammar admits one answer: every call in order; the model is not asked
+    model = ScriptedModel([], grammar=True)
+    candidates, attempts = query_next_skills(model, "ctx\nQ:", OBJECTS, calls=["pick(hook)", "pick(red_box)"])
+    assert [str(c) for c in candidates.calls] == ["pick(hook)", "pick(red_box)"]
+    assert model.prompts == [] and [a.problem for a in attempts] == [None]
+    stopping, _ = query_next_skills(model, "ctx\nQ:", OBJECTS, calls=["pick(hook)"], allow_stop=True)
+    assert [str(c) for c in stopping.calls] == ["pick(hook)", "stop()"]
+    unconstrained = ScriptedModel(["['pick(hook)']"], grammar=False)
+    query_next_skills(unconstrained, "ctx\nQ:", OBJECTS, calls=["pick(hook)"])
+    assert len(unconstrained.prompts) == 1

@@ -101,12 +101,17 @@ class GrammarRecorder(LengthScorer):
 def test_grounded_sessions_offer_only_valid_groundings_to_the_next_skill_grammar(grounded):
     model = GrammarRecorder()
     scene = SceneDescription(OBJECTS, RELATIONS, "Put the red box on the rack.")
-    session = LanguageSession(model, scene, seed=0, grounded=grounded)
+    session = LanguageSession(model, scene, seed=0, grounded=grounded, k=2)
     calls, _ = session.generate_next(parse_goal("[['on(red_box, rack)']]"), [])
     assert calls == [SkillCall("pick", ("hook",))]
     if grounded:
         grammar = model.grammars[0]
-        assert 'root ::= ws "[" pick-0-3 "]"' in grammar  # all three valid picks, nothing else
+        assert 'root ::= ws "[" pick-0-2 "]"' in grammar  # two of the three valid picks, nothing else
         assert all(f'"pick({name})"' in grammar for name in ("hook", "red_box", "blue_box")) and '"place(' not in grammar
+        # with K = 5 the three valid picks are the only answer the grammar admits: no model call
+        forced = LanguageSession(model, scene, seed=0)
+        calls, _ = forced.generate_next(parse_goal("[['on(red_box, rack)']]"), [])
+        assert [str(call) for call in calls] == ["pick(hook)", "pick(red_box)", "pick(blue_box)"]
+        assert len(model.grammars) == 1
     else:
         assert '"place("' in model.grammars[0] and "pick-arg0" in model.grammars[0]

@@ -57,6 +57,48 @@ def test_scores_match_a_full_pass_and_are_stable(local_model):
 
 @pytest.mark.llm
 @pytest.mark.slow
+def test_an_in_context_prefix_is_evaluated_once_per_model_and_kept_on_disk(local_model, tmp_path):
+    from t2m_llm_local.prefix_cache import PrefixCache
+
+    sharing = local_model._loaded.sharing
+    saved = sharing.cache
+    holders = [local_model._loaded.generation, local_model._loaded.get_scorer()]
+
+    def new_process_cache() -> PrefixCache:
+        for holder in holders:  # forget every evaluated token, as a new process would have none
+            holder.truncate(0)
+        sharing.cache = PrefixCache(saved.model_sha256, saved.engine, tmp_path)
+        return sharing.cache
+
+    examples = "".join(f"Example {index}: the box number {index} goes on the rack.\n\n" for index in range(16))
+    try:
+        cache = new_process_cache()
+        evaluated = sharing.evaluated_prefixes
+        local_model.complete(examples + CONTEXT.replace("Executed action:", "Next:"), max_tokens=3)
+        assert sharing.evaluated_prefixes == evaluated + 1 and len(list(cache.directory.glob("*.kv"))) == 1
+        scores = local_model.score(examples + CONTEXT, CANDIDATES)  # copied from the generation context
+        assert sharing.evaluated_prefixes == evaluated + 1
+        assert all(score < 0 for score in scores)
+
+        cache = new_process_cache()  # a new process loads the prefix from disk
+        loaded = local_model.score(examples + CONTEXT, CANDIDATES)
+        # the scoring context evaluated the current block itself this time: rounding as in batch splits
+        assert loaded == pytest.approx(scores, abs=0.3)
+        assert cache.disk_hits == 1 and sharing.evaluated_prefixes == evaluated + 1
+
+        (path,) = cache.directory.glob("*.kv")
+        raw = bytearray(path.read_bytes())
+        raw[-100] ^= 0xFF
+        path.write_bytes(bytes(raw))
+        cache = new_process_cache()  # a corrupt file is detected, evaluated again and rewritten
+        assert local_model.score(examples + CONTEXT, CANDIDATES) == pytest.approx(loaded, abs=1e-6)
+        assert cache.rejected_files == 1 and sharing.evaluated_prefixes == evaluated + 2 and path.is_file()
+    finally:
+        sharing.cache = saved
+
+
+@pytest.mark.llm
+@pytest.mark.slow
 def test_model_prefers_the_sensible_continuation(local_model):
     # holding the red box with the goal on the rack: placing it is far likelier than picking it again
     place, pick, _ = local_model.score(CONTEXT, CANDIDATES)
@@ -106,6 +148,10 @@ def test_hooks_register_local_and_stay_light():
     (spec,) = t2m_register_language_models()
     assert spec.name == "local" and spec.options is LocalModelOptions
     assert LocalModelOptions().model_path is None and LocalModelOptions().n_ctx == 8192
+    assert LocalModelOptions().model == "qwen2.5-coder-0.5b" and LocalModelOptions().prompt_cache
+    assert spec.alias_options["qwen2.5-coder-1.5b"] == {"model": "qwen2.5-coder-1.5b"}
+    with pytest.raises(ValueError, match="unknown embedded model 'qwen-7b'; choose one of"):
+        LocalModelOptions(model="qwen-7b")
     check_import_light("t2m_llm_local.hooks")
 
 

@@ -1,18 +1,22 @@
-"""Assembling the embedded model from its chunk packages: hash-verified, atomic, verified once."""
+"""Assembling an embedded model from its chunk packages: hash-verified, atomic, verified once; a
+missing optional model names its extra; any model file has a digest."""
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
+import importlib.metadata
 
 import pytest
 
 from t2m_core.errors import ModelFileError
 from t2m_llm_local import model_files
+from t2m_llm_local.catalogue import DEFAULT_MODEL, EMBEDDED_MODELS, QWEN_05B, QWEN_15B
 
 
 @pytest.fixture
 def small_chunks(tmp_path, monkeypatch):
-    """Three small chunk files standing in for the six packages; returns the expected bytes."""
+    """Three small chunk files standing in for the default model's packages; returns the expected bytes."""
     parts = [b"GGUF" + bytes(range(200)), bytes(300), b"tail"]
     paths = []
     for index, data in enumerate(parts):
@@ -20,9 +24,9 @@ def small_chunks(tmp_path, monkeypatch):
         path.write_bytes(data)
         paths.append(path)
     whole = b"".join(parts)
-    monkeypatch.setattr(model_files, "chunk_files", lambda: paths)
-    monkeypatch.setattr(model_files, "DEFAULT_MODEL_SIZE", len(whole))
-    monkeypatch.setattr(model_files, "DEFAULT_MODEL_SHA256", hashlib.sha256(whole).hexdigest())
+    small = dataclasses.replace(QWEN_05B, size=len(whole), sha256=hashlib.sha256(whole).hexdigest())
+    monkeypatch.setitem(EMBEDDED_MODELS, DEFAULT_MODEL, small)
+    monkeypatch.setattr(model_files, "chunk_files", lambda model: paths)
     monkeypatch.setenv("T2M_CACHE_DIR", str(tmp_path / "cache"))
     return whole
 
@@ -37,7 +41,8 @@ def test_assembles_once_into_the_cache_and_then_only_checks_the_marker(small_chu
         raise AssertionError("a verified file must not be hashed again")
 
     monkeypatch.setattr(model_files, "sha256_of", no_hashing)
-    assert model_files.default_model_path() == path
+    assert model_files.embedded_model_path(DEFAULT_MODEL) == path
+    assert model_files.model_digest(path) == hashlib.sha256(small_chunks).hexdigest()  # from the marker
 
 
 def test_a_modified_cached_file_is_rebuilt(small_chunks):
@@ -47,14 +52,45 @@ def test_a_modified_cached_file_is_rebuilt(small_chunks):
 
 
 def test_chunks_that_do_not_match_are_refused_and_leave_nothing(small_chunks, monkeypatch):
-    monkeypatch.setattr(model_files, "DEFAULT_MODEL_SHA256", "0" * 64)
+    monkeypatch.setitem(EMBEDDED_MODELS, DEFAULT_MODEL, dataclasses.replace(EMBEDDED_MODELS[DEFAULT_MODEL], sha256="0" * 64))
     with pytest.raises(ModelFileError, match="does not match") as raised:
         model_files.default_model_path()
     assert "pip install --force-reinstall" in str(raised.value)
     assert list(model_files.models_dir().iterdir()) == []
 
 
-def test_the_real_chunk_packages_are_found_in_order():
-    chunks = model_files.chunk_files()
-    assert [chunk.name for chunk in chunks] == [f"part0{index}.bin" for index in range(1, 7)]
-    assert sum(chunk.stat().st_size for chunk in chunks) == 491_400_064
+def test_a_missing_optional_model_names_its_extra(monkeypatch, tmp_path):
+    monkeypatch.setenv("T2M_CACHE_DIR", str(tmp_path))
+    absent = dataclasses.replace(QWEN_15B, chunk_distributions=("t2m-no-such-chunk-package",))
+    monkeypatch.setitem(EMBEDDED_MODELS, QWEN_15B.name, absent)
+    with pytest.raises(ModelFileError, match="is not installed") as raised:
+        model_files.embedded_model_path(QWEN_15B.name)
+    assert "pip install 'text2motion[qwen-1-5b]'" in raised.value.hint
+    with pytest.raises(ModelFileError, match="no embedded model named"):
+        model_files.embedded_model_path("gpt-2")
+
+
+def test_any_model_file_gets_a_digest_hashed_once(tmp_path, monkeypatch):
+    monkeypatch.setenv("T2M_CACHE_DIR", str(tmp_path / "cache"))
+    weights = tmp_path / "mine.gguf"
+    weights.write_bytes(b"weights")
+    assert model_files.model_digest(weights) == hashlib.sha256(b"weights").hexdigest()
+    monkeypatch.setattr(model_files, "sha256_of", lambda _path: pytest.fail("hashed twice"))
+    assert model_files.model_digest(weights) == hashlib.sha256(b"weights").hexdigest()
+
+
+def _installed(model) -> bool:
+    try:
+        importlib.metadata.distribution(model.chunk_distributions[0])
+    except importlib.metadata.PackageNotFoundError:
+        return False
+    return True
+
+
+@pytest.mark.parametrize("model", list(EMBEDDED_MODELS.values()), ids=list(EMBEDDED_MODELS))
+def test_the_real_chunk_packages_are_found_in_order(model):
+    if model.extra is not None and not _installed(model):
+        pytest.skip(f"the optional {model.name} chunks are not installed (text2motion[{model.extra}])")
+    chunks = model_files.chunk_files(model)
+    assert [chunk.name for chunk in chunks] == [f"part{index:02d}.bin" for index in range(1, len(model.chunk_distributions) + 1)]
+    assert sum(chunk.stat().st_size for chunk in chunks) == model.size
