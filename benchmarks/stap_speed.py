@@ -1,7 +1,7 @@
 """Speed of the feasibility planner: one ``plan()`` per skeleton length, against this CPU's dense-MLP rate.
 
     python benchmarks/stap_speed.py --json OUT [--planner policy-cem] [--population 10000] [--lengths 1-10]
-        [--repeats 2] [--threads N]
+        [--repeats 2] [--threads N] [--checkpoints DIR]
 
 In one run it measures (1) the reference rate: the 8-member 100-256-256-1 Q-ensemble forward on
 40 000 samples in float32, in GFLOP/s; (2) the wall time of one ``plan()`` of the chosen planner for
@@ -55,6 +55,7 @@ def main() -> None:
     parser.add_argument("--lengths", default="1-10", help="skeleton lengths, e.g. 1-10 or 1,4")
     parser.add_argument("--repeats", type=int, default=2, help="plans per length (the fastest counts)")
     parser.add_argument("--threads", type=int, default=None, help="torch threads (default: torch's)")
+    parser.add_argument("--checkpoints", default=None, help="skill checkpoints directory (default: the shipped ones)")
     args = parser.parse_args()
 
     import torch
@@ -70,7 +71,7 @@ def main() -> None:
         torch.set_num_threads(args.threads)
     lengths = _lengths(args.lengths)
     registry = get_registry()
-    skills = registry.create("skill_library", "tableenv")
+    skills = registry.create("skill_library", "tableenv", {"checkpoints": args.checkpoints} if args.checkpoints else {})
     options = {"population": args.population} if args.planner != "policy" else {}
     planner = registry.create("feasibility_planner", args.planner, options)
     task = load_task("task3")
