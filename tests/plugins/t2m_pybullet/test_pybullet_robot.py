@@ -104,3 +104,14 @@ def test_robot_base_rests_on_the_table_without_contact(sim):
     sim.reset(load_task("task0"), seed=0)
     world = sim.world
     assert world.client.getContactPoints(world.robot.body, world.scene.body["table"], -1) == ()
+
+
+def test_connecting_prints_nothing_on_stdout(capfd):
+    """``t2m sim demo --json`` writes JSON to stdout: PyBullet's ``argv[0]=`` must not land there."""
+    from t2m_pybullet.client import connect
+
+    client = connect()
+    try:
+        assert capfd.readouterr().out == ""
+    finally:
+        client.disconnect()
