@@ -83,3 +83,23 @@ def test_an_unwritable_run_directory_is_one_line_of_error(t2m_registry, t2m_plug
     assert result.exit_code == 2 and "cannot write to" in result.output
     negative = runner.invoke(app, ["run", *SELECTION[:-2], "--seed", "-1", "--out", str(tmp_path / "x")])
     assert negative.exit_code == 2 and "greater than or equal to 0" in negative.output
+
+
+def test_a_run_replayed_from_its_transcript_takes_the_same_decisions(t2m_registry, t2m_plugin, tmp_path) -> None:
+    import t2m_llm_replay.hooks
+
+    model = RuleModel(goal=GOAL, sequences="[['pick(yellow_box)']]", next_skills=["['pick(yellow_box)', 'pick(cyan_box)']"],
+                      scores={"pick(cyan_box)": -1.0, "pick(yellow_box)": -2.0})
+    install(t2m_plugin, model)
+    t2m_plugin(t2m_llm_replay.hooks, name="replay")
+    first = runner.invoke(app, ["run", *SELECTION, "--set", "task_planner.options.max_depth=3", "--out", str(tmp_path / "first")])
+    replay = [*SELECTION, "--llm", "replay", "--set", f"language_model.options.transcript={tmp_path / 'first' / 'transcript.jsonl'}"]
+    second = runner.invoke(app, ["run", *replay, "--set", "task_planner.options.max_depth=3", "--out", str(tmp_path / "second")])
+    assert first.exit_code == second.exit_code == 1
+
+    def decisions(run: str) -> list[dict]:
+        lines = (tmp_path / run / "plan_tree.jsonl").read_text().splitlines()
+        return [json.loads(line) for line in lines]
+
+    assert decisions("first") == decisions("second") and len(decisions("first")) > 3
+    assert model.requests.count("score") == 3  # the replayed run asked the recorded answers, not the model
