@@ -96,4 +96,10 @@ def load_library(options: TableEnvSkillsOptions | None = None) -> dict[str, Tabl
         CheckpointError: a skill's checkpoint is missing or broken.
     """
     options = options or TableEnvSkillsOptions()
-    return {name: TableEnvSkill.load(options.checkpoint_directory / name) for name in DATA_SKILLS}
+    library = {}
+    for name in DATA_SKILLS:
+        directory = options.checkpoint_directory / name
+        skill = library[name] = TableEnvSkill.load(directory)
+        if skill.name != name:
+            raise CheckpointError(f"{directory / 'config.json'} holds a {skill.name!r} skill, not {name!r}", f"put the {name} checkpoint in {directory}")
+    return library

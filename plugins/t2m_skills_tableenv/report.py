@@ -21,7 +21,8 @@ from t2m_core.data.scenes import DATA_SKILLS
 from t2m_core.domain.geometry import axis_angle_to_quat, quat_yaw, wrap_angle
 from t2m_core.domain.observation import RowOrder, decode_dynamics_prediction
 from t2m_skills_tableenv.dataset import SkillTensors
-from t2m_skills_tableenv.library import TableEnvSkill
+from t2m_skills_tableenv.library import TableEnvSkill, load_library
+from t2m_skills_tableenv.options import TableEnvSkillsOptions
 from t2m_skills_tableenv.training import q_metrics
 
 RELIABILITY_BINS = np.linspace(0.0, 1.0, 11)
@@ -96,10 +97,11 @@ def report_library(checkpoints: Path, data: Path | None, episodes: int, out: Pat
     from t2m_core.data.generate import MANIFEST_NAME, load_split
 
     report: dict[str, Any] = {}
+    library = load_library(TableEnvSkillsOptions(checkpoints=Path(checkpoints)))
     for name in DATA_SKILLS:
-        skill = TableEnvSkill.load(Path(checkpoints) / name)
+        skill = library[name]
         entry: dict[str, Any] = {"ood": {k: skill.config.get("ood", {}).get(k) for k in ("threshold", "detection_rate", "false_positive_rate")}}
-        if data is not None:
+        if data is not None and (Path(data) / name / "validation" / MANIFEST_NAME).exists():
             import json
 
             entry["dataset"] = {
@@ -122,7 +124,7 @@ def report_library(checkpoints: Path, data: Path | None, episodes: int, out: Pat
     out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(out / "report.json", report)
     write_text_atomic(out / "report.md", markdown_table(report))
-    if data is not None:
+    if any(entry.get("reliability") for entry in report.values()):
         plot_reliability(out / "reliability.png", report)
     return report
 

@@ -71,3 +71,13 @@ def test_the_threshold_flags_at_most_one_percent_of_in_distribution_pairs_in_eve
         assert row["flagged"] <= 0.01 + 1e-9
     # and it is the smallest such: just below it, the noisiest bin flags more than 1 %
     assert max(r["flagged"] for r in per_bin_rates(mean, variance, threshold * 0.97)) > 0.01
+
+
+def test_a_library_refuses_a_checkpoint_of_another_skill_in_a_skills_place(tmp_path) -> None:
+    from t2m_skills_tableenv.library import load_library
+    from t2m_skills_tableenv.options import TableEnvSkillsOptions
+
+    for name in ("pick", "place", "pull", "push"):
+        write_checkpoint(tmp_path / name)  # every one says skill "pick"
+    with pytest.raises(CheckpointError, match="holds a 'pick' skill, not 'place'"):
+        load_library(TableEnvSkillsOptions(checkpoints=tmp_path))
