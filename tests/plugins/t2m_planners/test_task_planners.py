@@ -12,6 +12,7 @@ from t2m_core.domain.sampling import sample_initial_state
 from t2m_core.language.scene_description import describe_state
 from t2m_core.language.session import LanguageSession
 from t2m_core.protocols import PlanningContext
+from t2m_core.testing import check_task_planner
 from t2m_planners.lookahead import LookaheadPlanner
 from t2m_planners.options import LookaheadOptions
 from tests.plugins.t2m_planners.planner_doubles import RuleModel, SymbolicFeasibility
@@ -33,7 +34,7 @@ def context(model: RuleModel, feasibility: SymbolicFeasibility, events: list | N
 def test_shooting_truncates_at_the_first_goal_state_and_takes_the_most_feasible() -> None:
     model = RuleModel(sequences=f"[{SOLUTION[:-1]}, 'pick(blue_box)'], ['pick(red_box)', 'place(red_box, table)']]")
     feasibility = SymbolicFeasibility()
-    result = LookaheadPlanner(LookaheadOptions(), "shooting").plan(context(model, feasibility))
+    result = check_task_planner(LookaheadPlanner(LookaheadOptions(), "shooting"), context(model, feasibility))
     assert result.found and [str(c) for c in result.skeleton] == ["pick(red_box)", "place(red_box, rack)"]  # pick(blue_box) cut
     assert result.plan.values.shape == (2,) and result.plan.p_success == pytest.approx(0.81)
     assert result.llm_calls == 1 and result.stap_calls == 2
@@ -65,7 +66,7 @@ def test_greedy_search_appends_the_best_scored_skill_and_stops_on_any_goal_reach
 def test_hybrid_falls_back_to_a_greedy_step_then_shoots_again_from_the_prefix() -> None:
     model = RuleModel(sequences="[['place(red_box, rack)']]", next_skills=["['pick(red_box)']"], scores={"pick(red_box)": -1.0})
     feasibility = SymbolicFeasibility()
-    result = LookaheadPlanner(LookaheadOptions(), "hybrid").plan(context(model, feasibility))
+    result = check_task_planner(LookaheadPlanner(LookaheadOptions(), "hybrid"), context(model, feasibility))
     # the first shot places a box that is not held (infeasible), the greedy step picks, the second
     # shot, from the prefix, completes the plan
     assert model.requests[:3] == ["shooting", "next", "score"]
@@ -75,5 +76,5 @@ def test_hybrid_falls_back_to_a_greedy_step_then_shoots_again_from_the_prefix() 
 
 def test_planning_fails_after_the_depth_budget() -> None:
     model = RuleModel(next_skills=["['pick(blue_box)']"], scores={"pick(blue_box)": -1.0})
-    result = LookaheadPlanner(LookaheadOptions(max_depth=3), "greedy-search").plan(context(model, SymbolicFeasibility()))
+    result = check_task_planner(LookaheadPlanner(LookaheadOptions(max_depth=3), "greedy-search"), context(model, SymbolicFeasibility()))
     assert not result.found and "within 3 skills" in result.failure and len(result.skeleton) == 3
