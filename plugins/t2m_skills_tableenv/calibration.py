@@ -80,6 +80,9 @@ def calibrate_skill(skill: str, data: Path, checkpoint: Path) -> dict[str, Any]:
         "statistic": "population variance of the member probabilities; flagged when >= threshold",
         "rule": f"smallest threshold flagging <= {FALSE_POSITIVE_BUDGET:.0%} of in-distribution pairs in every mean bin",
         "detection_rate": float((invalid_var >= threshold).mean()),
+        # the invalid pairs that would pass as feasible without the detector (mean Q >= 0.5): where it matters
+        "detection_rate_where_q_high": float((invalid_var[invalid_mean >= 0.5] >= threshold).mean()) if (invalid_mean >= 0.5).any() else None,
+        "invalid_share_with_q_high": float((invalid_mean >= 0.5).mean()),
         "false_positive_rate": float((valid_var >= threshold).mean()),
         "in_distribution_pairs": int(len(valid_var)),
         "invalid_pairs": int(len(invalid_var)),
