@@ -26,6 +26,7 @@ def main() -> None:
     parser.add_argument("--seeds", default="0-9")
     parser.add_argument("--population", type=int, default=None, help="override the CEM/shooting population")
     parser.add_argument("--sim", default="mujoco")
+    parser.add_argument("--plot", default=None, help="write a reliability plot (PNG) of predicted p_success against success")
     args = parser.parse_args()
 
     from t2m_core.atomic_files import write_json_atomic
@@ -68,6 +69,8 @@ def main() -> None:
                                             "reliability": reliability(episodes)}
     simulator.close()
     write_json_atomic(args.json_out, report)
+    if args.plot:
+        plot_reliability(report, args.plot)
 
 
 def reliability(episodes: list[dict]) -> list[dict]:
@@ -80,6 +83,25 @@ def reliability(episodes: list[dict]) -> list[dict]:
                          "predicted": float(np.mean([e["predicted_p_success"] for e in chosen])),
                          "realised": float(np.mean([e["success"] for e in chosen]))})
     return rows
+
+
+def plot_reliability(report: dict, path: str) -> None:
+    """Realised success against the first plan's predicted p_success, one line per planner."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, axis = plt.subplots(figsize=(5, 5))
+    axis.plot([0, 1], [0, 1], color="grey", linestyle="--", linewidth=1, label="perfect calibration")
+    for planner, entry in report["planners"].items():
+        rows = entry["reliability"]
+        axis.plot([r["predicted"] for r in rows], [r["realised"] for r in rows], marker="o", label=f"{planner} (overall {entry['overall']:.0%})")
+    axis.set_xlabel("predicted p_success of the first plan")
+    axis.set_ylabel("realised success (closed loop, MuJoCo)")
+    axis.legend(fontsize=8)
+    figure.savefig(path, dpi=90, bbox_inches="tight")
+    plt.close(figure)
 
 
 if __name__ == "__main__":
