@@ -120,6 +120,8 @@ def run_episode(
     tree = (out / "plan_tree.jsonl").open("a", encoding="utf-8")
 
     def record(event: dict[str, Any]) -> None:
+        if event.get("event") == "executed":
+            result.executed.append({k: v for k, v in event.items() if k != "event"})
         tree.write(json.dumps(event) + "\n")
         tree.flush()
         if on_event is not None:
@@ -171,7 +173,6 @@ def run_episode(
                     on_step=lambda step: record({"event": "executed", **step.summary()}), closed_loop=config.run.closed_loop,
                 )
                 result.stap_calls += len(steps.steps)
-                result.executed = [step.summary() for step in steps.steps]
                 executed_calls = [step.call for step in steps.steps if step.result.success]
                 failed = next((s for s in steps.steps if not s.result.success), None)
                 if failed is not None:
