@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -261,20 +262,29 @@ def polygons_overlap(polygon_a: np.ndarray, polygon_b: np.ndarray) -> bool:
     normals = np.concatenate(axes)
     if len(normals) == 0:
         return bool(np.allclose(a[0], b[0]))
-    proj_a, proj_b = a @ normals.T, b @ normals.T
-    tol = 1e-12 * np.linalg.norm(normals, axis=1)
-    separated = (proj_a.max(axis=0) < proj_b.min(axis=0) - tol) | (proj_b.max(axis=0) < proj_a.min(axis=0) - tol)
-    return not bool(separated.any())
+    return not bool(_separated_along(a, b, normals).any())
 
 
-def _point_segment_distances(points: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
-    """``(P, S)`` distances from ``(P, 2)`` points to ``(S, 2)`` segments."""
-    d = ends - starts
-    length2 = np.maximum(np.sum(d * d, axis=1), 1e-30)
-    rel = points[:, None, :] - starts[None, :, :]
-    t = np.clip(np.sum(rel * d[None], axis=2) / length2[None], 0.0, 1.0)
-    closest = starts[None] + t[..., None] * d[None]
-    return np.linalg.norm(points[:, None, :] - closest, axis=2)
+def _separated_along(points_a: np.ndarray, points_b: np.ndarray, axes: np.ndarray) -> np.ndarray:
+    """``(..., S)`` whether the projections of the point sets ``(..., M, 2)`` on each of the ``(..., S, 2)``
+    axes are disjoint (touching, within 1e-12 of an axis' length, is not disjoint)."""
+    to_axes = np.swapaxes(axes, -1, -2)
+    proj_a, proj_b = points_a @ to_axes, points_b @ to_axes
+    tol = 1e-12 * np.linalg.norm(axes, axis=-1)
+    return (proj_a.max(axis=-2) < proj_b.min(axis=-2) - tol) | (proj_b.max(axis=-2) < proj_a.min(axis=-2) - tol)
+
+
+def _closest_squared_distance(points: np.ndarray, segments: np.ndarray) -> np.ndarray:
+    """``(...)`` the smallest squared distance from ``(..., P, 2)`` points to ``(..., S, 2, 2)`` segments
+    (start, end), metres². Coordinates are kept apart: reductions over an axis of 2 cost more than
+    the arithmetic."""
+    start_x, start_y = segments[..., None, :, 0, 0], segments[..., None, :, 0, 1]  # (..., 1, S)
+    along_x, along_y = segments[..., None, :, 1, 0] - start_x, segments[..., None, :, 1, 1] - start_y
+    rel_x, rel_y = points[..., :, None, 0] - start_x, points[..., :, None, 1] - start_y  # (..., P, S)
+    length2 = np.maximum(along_x * along_x + along_y * along_y, 1e-30)
+    t = np.clip((rel_x * along_x + rel_y * along_y) / length2, 0.0, 1.0)
+    off_x, off_y = rel_x - t * along_x, rel_y - t * along_y
+    return (off_x * off_x + off_y * off_y).min(axis=(-2, -1))
 
 
 def polygon_distance(polygon_a: np.ndarray, polygon_b: np.ndarray) -> float:
@@ -283,12 +293,82 @@ def polygon_distance(polygon_a: np.ndarray, polygon_b: np.ndarray) -> float:
     if polygons_overlap(a, b):
         return 0.0
     # Disjoint convex sets: the closest pair has a vertex of one on an edge of the other.
-    return float(
-        min(
-            _point_segment_distances(a, b, np.roll(b, -1, axis=0)).min(),
-            _point_segment_distances(b, a, np.roll(a, -1, axis=0)).min(),
-        )
+    squared = min(_closest_squared_distance(a, polygon_edges(b)), _closest_squared_distance(b, polygon_edges(a)))
+    return math.sqrt(squared)
+
+
+def polygon_edges(polygons: np.ndarray) -> np.ndarray:
+    """``(..., K, 2, 2)`` edges (start, end) of ``(..., K, 2)`` polygons in cyclic order, the closing one last."""
+    return np.stack((polygons, np.roll(polygons, -1, axis=-2)), axis=-2)
+
+
+def hull_distances(points_a: np.ndarray, edges_a: np.ndarray, points_b: np.ndarray, edges_b: np.ndarray) -> np.ndarray:
+    """Closest distances between the convex hulls of two point sets, broadcast over the leading axes,
+    metres; 0 where they overlap: :func:`polygon_distance` for batches.
+
+    Each hull is given by ``(..., M, 2)`` points within it that include its vertices and
+    ``(..., S, 2, 2)`` segments within it that include its edges (a convex polygon: its vertices and
+    :func:`polygon_edges`; a translated one: :func:`translation_hull`), so that no hull has to be
+    built. The separating-axis test then sees every edge normal of both hulls, and the closest
+    vertex-edge pair is among the candidates. Not for two segments (:func:`polygons_overlap` tests
+    the axes along them too); padded vertices (:func:`pad_polygons`) are harmless."""
+    overlap = ~(
+        _separated_along(points_a, points_b, _segment_normals(edges_a)).any(axis=-1)
+        | _separated_along(points_a, points_b, _segment_normals(edges_b)).any(axis=-1)
     )
+    distance2 = np.minimum(_closest_squared_distance(points_a, edges_b), _closest_squared_distance(points_b, edges_a))
+    return np.where(overlap, 0.0, np.sqrt(distance2))
+
+
+def _segment_normals(segments: np.ndarray) -> np.ndarray:
+    """``(..., S, 2)`` unnormalised normals of ``(..., S, 2, 2)`` segments; zero for a zero-length one,
+    which separates nothing."""
+    d = segments[..., 1, :] - segments[..., 0, :]
+    return np.stack((-d[..., 1], d[..., 0]), axis=-1)
+
+
+def translation_hull(polygons: np.ndarray, shifts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The convex hull of ``(..., K, 2)`` convex polygons translated by each of ``(..., T, 2)`` shifts
+    (the footprint a polygon sweeps, a box's start and predicted ends), as :func:`hull_distances`
+    takes it: ``(..., T·K, 2)`` points and ``(..., (T + T(T−1)/2)·K, 2, 2)`` edges, those of every copy
+    and the path of every vertex between two copies. The hull is the polygon's Minkowski sum with the
+    shifts' hull, so each of its edges is an edge of a copy or such a path."""
+    copies = np.asarray(polygons)[..., None, :, :] + np.asarray(shifts)[..., :, None, :]  # (..., T, K, 2)
+    count, corners = copies.shape[-3:-1]
+    edges = [polygon_edges(copies).reshape(*copies.shape[:-3], count * corners, 2, 2)]
+    pairs = itertools.combinations(range(count), 2)
+    edges += [np.stack((copies[..., i, :, :], copies[..., j, :, :]), axis=-2) for i, j in pairs]
+    return copies.reshape(*copies.shape[:-3], count * corners, 2), np.concatenate(edges, axis=-3)
+
+
+def pad_polygons(polygons: Sequence[np.ndarray]) -> np.ndarray:
+    """``(N, K, 2)`` the ``(K_i, 2)`` polygons stacked, each padded to the most vertices by repeating its
+    last one (a zero-length edge); ``(0, 1, 2)`` for none."""
+    size = max((len(polygon) for polygon in polygons), default=1)
+    padded = [np.concatenate((p, np.repeat(p[-1:], size - len(p), axis=0))) for p in polygons]
+    return np.array(padded, dtype=np.float64).reshape(len(polygons), size, 2)
+
+
+def penetration_depths(footprints: np.ndarray, regions: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """How far ``(..., K, 2)`` convex footprints reach into ``(..., R, 2)`` convex regions along
+    ``(..., 2)`` unit directions: the shortest move back against the direction that separates them,
+    metres, 0 where they do not overlap. Broadcast over the leading axes.
+
+    Moving back by t shifts every projection on an axis n by −t·(d·n); the footprint leaves the
+    region at the first t where some edge normal separates them."""
+    footprints, regions = np.asarray(footprints, dtype=np.float64), np.asarray(regions, dtype=np.float64)
+    normals = [_segment_normals(polygon_edges(polygons)) for polygons in (footprints, regions)]
+    batch = np.broadcast_shapes(footprints.shape[:-2], regions.shape[:-2], np.shape(directions)[:-1])
+    axes = np.concatenate([np.broadcast_to(n, (*batch, *n.shape[-2:])) for n in normals], axis=-2)  # (..., S, 2)
+    along = np.sum(axes * np.asarray(directions)[..., None, :], axis=-1)
+    axes = np.where(along[..., None] < 0.0, -axes, axes)  # each axis faces the move, so that −t·|d·n| shifts it
+    to_axes = np.swapaxes(axes, -1, -2)
+    footprint_high, region_low = (footprints @ to_axes).max(axis=-2), (regions @ to_axes).min(axis=-2)
+    # An axis square to the move never separates them, and a nearly square one only at t = ∞.
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        exits = np.where(np.abs(along) > 0.0, (footprint_high - region_low) / np.abs(along), np.inf)
+    overlap = ~(_separated_along(footprints, regions, axes).any(axis=-1))
+    return np.where(overlap, np.maximum(exits.min(axis=-1), 0.0), 0.0)
 
 
 def grow_polygon(polygon: np.ndarray, margin: float) -> np.ndarray:
@@ -369,6 +449,23 @@ def object_geometry(name: str, pose: ObjectPose, spec: ObjectSpec | None = None)
     aabb = np.stack((flat.min(axis=0), flat.max(axis=0)))
     footprints = tuple(convex_hull_2d(part[:, :2]) for part in corners)
     return ObjectGeometry(name, spec, pose.position, pose.quaternion, corners, aabb, footprints)
+
+
+def yawed_footprints(spec: ObjectSpec, positions: np.ndarray, yaws: np.ndarray) -> np.ndarray:
+    """``(..., P, 4, 2)`` counter-clockwise xy footprints of the convex parts of an object turned only
+    about z, at ``(..., 3)`` positions (metres) with ``(...)`` yaws (radians): the footprints of
+    :func:`object_geometry` for a batch of upright poses, without a hull per pose."""
+    corners = _local_part_footprints(spec)  # (P, 4, 2)
+    cos, sin = np.cos(yaws)[..., None, None], np.sin(yaws)[..., None, None]
+    x, y = corners[..., 0], corners[..., 1]
+    return np.stack((cos * x - sin * y, sin * x + cos * y), axis=-1) + np.asarray(positions)[..., None, None, :2]
+
+
+@lru_cache(maxsize=64)
+def _local_part_footprints(spec: ObjectSpec) -> np.ndarray:
+    """``(P, 4, 2)`` counter-clockwise xy corners of the convex parts in the object frame, metres."""
+    signs = np.array([(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)])
+    return np.stack([np.asarray(p.center[:2]) + 0.5 * signs * np.asarray(p.size[:2]) for p in spec.convex_parts()])
 
 
 def world_aabb(name: str, pose: ObjectPose, spec: ObjectSpec | None = None) -> np.ndarray:

@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from t2m_core.domain import geometry as g
+from t2m_core.domain.objects import object_spec
 from t2m_core.domain.state import ObjectPose
 from tests.domain.scenes import RACK_BEYOND, RACK_IN_WORKSPACE, finite, on_table, quaternions
 
@@ -142,6 +143,50 @@ def test_polygon_distance_agrees_with_dense_sampling(cx: float, cy: float, yaw: 
     if distance > 0:
         assert distance <= sampled + 1e-12
         assert sampled - distance < 0.02
+
+
+@settings(max_examples=80)
+@given(
+    st.lists(st.floats(-0.6, 0.6, **finite), min_size=6, max_size=6),
+    st.floats(0, math.pi, **finite),
+    st.floats(0.02, 0.3, **finite),
+    quaternions(),
+)
+def test_batched_distances_match_the_polygon_distance(shifts: list[float], yaw: float, half: float, q) -> None:
+    # A square translated to three places and a (possibly tilted, so 4-8 sided) box footprint, padded.
+    square = _square(0, 0, 0.1, yaw)
+    shift_rows = np.array(shifts).reshape(3, 2)
+    points, edges = g.translation_hull(square, shift_rows)
+    box = g.object_geometry("red_box", ObjectPose([0.2, 0.1, 0.3], q)).footprints[0] * half / 0.025
+    obstacles = g.pad_polygons([box, _square(0.3, -0.2, half, yaw)])
+    distances = g.hull_distances(points, edges, obstacles, g.polygon_edges(obstacles))
+    union = g.convex_hull_2d(points)
+    expected = [g.polygon_distance(union, box), g.polygon_distance(union, _square(0.3, -0.2, half, yaw))]
+    np.testing.assert_allclose(distances, expected, atol=1e-12)
+
+
+@settings(max_examples=80)
+@given(
+    st.floats(-0.3, 0.3, **finite), st.floats(-0.3, 0.3, **finite), st.floats(0, 2 * math.pi, **finite), quaternions()
+)
+def test_penetration_depth_is_the_shortest_separating_move(x: float, y: float, heading: float, q) -> None:
+    footprint = g.object_geometry("red_box", ObjectPose([x, y, 0.3], q)).footprints[0]
+    region = _square(0.0, 0.0, 0.15, 0.4)
+    direction = np.array([math.cos(heading), math.sin(heading)])
+    depth = float(g.penetration_depths(footprint, region, direction))
+    assert g.polygons_overlap(footprint, region) or depth == 0.0
+    assert not g.polygons_overlap(footprint - (depth + 1e-9) * direction, region)
+    if depth > 1e-6:
+        assert g.polygons_overlap(footprint - (depth - 1e-6) * direction, region)
+
+
+def test_yawed_footprints_are_the_object_footprints() -> None:
+    positions, yaws = np.array([[0.5, 0.1, 0.03], [0.2, -0.3, 0.4]]), np.array([0.3, -2.0])
+    batch = g.yawed_footprints(object_spec("hook"), positions, yaws)  # (2, 2 parts, 4, 2)
+    for position, yaw, parts in zip(positions, yaws, batch, strict=True):
+        geometry = g.object_geometry("hook", ObjectPose(position, g.yaw_to_quat(yaw)))
+        for part, footprint in zip(parts, geometry.footprints, strict=True):
+            np.testing.assert_allclose(g.convex_hull_2d(part), footprint, atol=1e-12)
 
 
 def test_grow_polygon_moves_vertices_outward_per_axis() -> None:

@@ -8,11 +8,14 @@ import math
 import numpy as np
 import pytest
 
+from t2m_core.data.scenes import draw_data_task
 from t2m_core.domain.primitives import PRIMITIVES
 from t2m_core.domain.primitives.hook_sweep import SCREEN_DRAWS, sweep_poses
 from t2m_core.domain.primitives.sweep_screen import predict_sweep
+from t2m_core.domain.sampling import sample_initial_state
 from t2m_core.domain.state import GeometricState
 from tests.domain.scenes import RACK_BEYOND, on_table, scene
+from tests.domain.sweep_screen_reference import reference_screen
 
 PICK, PULL, PUSH = (PRIMITIVES[n] for n in ("pick", "pull", "push"))
 THETA = math.pi / 8
@@ -44,16 +47,16 @@ def push(r_push: float, y: float) -> np.ndarray:
 
 
 def test_prediction_moves_the_box_with_the_head_after_the_gap() -> None:
-    poses = sweep_poses(PULL_SCENE, "blue_box", "hook", *pull(-0.3, -0.03))
+    poses = sweep_poses(PULL_SCENE, "blue_box", "hook", *pull(-0.3, -0.03)[:, None])  # a batch of one
     prediction = predict_sweep(
         PULL_SCENE, "blue_box", "hook", poses.hook_reach, poses.hook_end, poses.hook_yaw,
-        np.stack((poses.reach_position[:2], poses.end_position[:2])),
+        np.stack((poses.reach_position[:, :2], poses.end_position[:, :2]), axis=1),
     )
-    moved = prediction.target_end.position - prediction.target_start.position
+    (moved,) = prediction.target_shift
     # Straight towards the base, a little less than the 0.3 m sweep (the head first closes its gap).
-    assert moved[1] == pytest.approx(0.0, abs=1e-9) and moved[2] == 0.0
+    assert moved[1] == pytest.approx(0.0, abs=1e-9)
     assert -0.3 < moved[0] < -0.27
-    np.testing.assert_allclose(prediction.ee_path[0], poses.reach_position[:2])
+    np.testing.assert_allclose(prediction.ee_path[0, 0], poses.reach_position[0, :2])
 
 
 def test_pull_screen_accepts_a_clean_pull_into_the_workspace() -> None:
@@ -93,6 +96,41 @@ def test_push_screen_wants_the_box_just_under_the_rack() -> None:
     # Between the legs only: the angled head drifts the box sideways, into a leg from y = 0.08.
     beside = holding_hook((0.55, 0.08), grasp_x=0.0)
     assert PUSH.screen(beside, PUSH_ARGS, push(0.3, -0.03)) == "disturbed"
+
+
+@pytest.mark.parametrize("name", ["pull", "push"])
+def test_batched_screen_gives_the_per_draw_reference_verdicts(name: str) -> None:
+    # Data-generation scenes; per scene heuristic and uniform draws and the sampler's pick (which passes).
+    primitive, rng = PRIMITIVES[name], np.random.default_rng(17)
+    seen: list[str | None] = []
+    for seed in range(40):
+        task = draw_data_task(name, True, rng)
+        state, arguments = sample_initial_state(task.objects, task.initial_state, seed).state, task.call.args
+        draws = np.concatenate(
+            (
+                primitive.heuristic_draws(arguments, rng, 8),
+                rng.uniform(primitive.action_low, primitive.action_high, (8, 4)),
+                primitive.screened_physical(state, arguments, rng)[None],
+            )
+        )
+        expected = [reference_screen(name, state, arguments, physical) for physical in draws]
+        assert primitive.screen_draws(state, arguments, draws) == expected
+        assert primitive.screen(state, arguments, draws[-1]) == expected[-1]
+        seen += expected
+    assert len(seen) == 40 * 17 and seen.count(None) >= 10
+    assert {"unreachable", "tipped_over", "disturbed"} < set(seen)
+
+
+def test_heuristic_draws_are_the_reference_heuristic_in_a_row() -> None:
+    rng, twin = np.random.default_rng(4), np.random.default_rng(4)
+    draws = PUSH.heuristic_draws(PUSH_ARGS, rng, 5)
+    for draw in draws:
+        expected = twin.uniform(PUSH.action_low, PUSH.action_high)  # the heuristic as published
+        expected[0], expected[3] = PUSH.heuristic_reach(PUSH_ARGS), THETA
+        np.testing.assert_array_equal(draw, expected)
+    np.testing.assert_array_equal(
+        PUSH.heuristic_physical(PUSH_SCENE, PUSH_ARGS, rng), PUSH.heuristic_draws(PUSH_ARGS, twin, 1)[0]
+    )
 
 
 def test_screened_sampler_keeps_the_heuristic_support_and_passes_the_screen() -> None:

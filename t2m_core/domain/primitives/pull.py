@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import partial
 
 import numpy as np
 
@@ -22,9 +23,11 @@ from t2m_core.domain.primitives.hook_sweep import HookSweep, hook_clearance, pla
 from t2m_core.domain.primitives.sweep_screen import (
     END_MARGIN,
     SweepPrediction,
+    Verdicts,
     bystanders,
     face_meets_target,
-    sweep_failure,
+    obstacle_footprints,
+    sweep_disturbs,
 )
 from t2m_core.domain.state import GeometricState
 
@@ -94,21 +97,29 @@ class Pull(HookSweep):
         half_hook, clearance = hook_clearance(arguments[0], arguments[1])
         return -(half_hook - clearance)
 
-    def screen_sweep(self, state: GeometricState, arguments: Sequence[str], prediction: SweepPrediction) -> str | None:
+    def screen_sweep(self, state: GeometricState, arguments: Sequence[str], verdicts: Verdicts) -> None:
         """The head's face square on the box; bystanders (the whole rack included) clear of the hook,
-        the box (slid into the crook or not) and the hand; the box's predicted end :data:`END_MARGIN` inside the workspace and pulled by d_Pull + that margin."""
-        if not face_meets_target(prediction):
-            return "not_pulled"
-        obstacles = bystanders(state, arguments)
-        reason = sweep_failure(prediction, hook_obstacles=obstacles, target_obstacles=obstacles, hand_obstacles=obstacles)
-        if reason is not None:
-            return reason
-        start_xy, end_xy = prediction.target_start.position[:2], prediction.target_end.position[:2]
-        if end_xy[0] < WORKSPACE_X_MIN + END_MARGIN or np.linalg.norm(end_xy) >= WORKSPACE_RADIUS - END_MARGIN:
-            return "outside_workspace"
-        if np.linalg.norm(end_xy) >= np.linalg.norm(start_xy) - self.min_distance - END_MARGIN:
-            return "not_pulled"
-        return None
+        the box (slid into the crook or not) and the hand; the box's predicted end :data:`END_MARGIN`
+        inside the workspace and pulled by d_Pull + that margin."""
+        verdicts.check("not_pulled", lambda prediction: ~face_meets_target(prediction))
+        obstacles = obstacle_footprints(bystanders(state, arguments))
+        verdicts.check(
+            "disturbed",
+            partial(sweep_disturbs, hook_obstacles=obstacles, target_obstacles=obstacles, hand_obstacles=obstacles),
+        )
+        verdicts.check("outside_workspace", _ends_outside_workspace)
+        verdicts.check("not_pulled", self._pulled_too_little)
+
+    def _pulled_too_little(self, prediction: SweepPrediction) -> np.ndarray:
+        """``(B,)`` whether the box's predicted end is not d_Pull + :data:`END_MARGIN` closer to the base."""
+        start = np.linalg.norm(prediction.target_xy)
+        return np.linalg.norm(prediction.target_end_xy, axis=-1) >= start - self.min_distance - END_MARGIN
+
+
+def _ends_outside_workspace(prediction: SweepPrediction) -> np.ndarray:
+    """``(B,)`` whether the box's predicted end is not :data:`END_MARGIN` inside the workspace."""
+    end = prediction.target_end_xy
+    return (end[:, 0] < WORKSPACE_X_MIN + END_MARGIN) | (np.linalg.norm(end, axis=-1) >= WORKSPACE_RADIUS - END_MARGIN)
 
 
 def target_upright(context: StepContext) -> str | None:

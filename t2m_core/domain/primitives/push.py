@@ -8,7 +8,7 @@ from functools import partial
 import numpy as np
 
 from t2m_core.domain.constants import D_PUSH
-from t2m_core.domain.geometry import is_under, object_geometry
+from t2m_core.domain.geometry import is_under, object_geometry, penetration_depths
 from t2m_core.domain.objects import ObjectKind
 from t2m_core.domain.primitives.base import MotionKind, MotionStep, StepContext, lift_position, other_objects
 from t2m_core.domain.primitives.hook_sweep import HookSweep, hook_clearance, planar_distance
@@ -16,17 +16,19 @@ from t2m_core.domain.primitives.pull import target_upright
 from t2m_core.domain.primitives.sweep_screen import (
     END_MARGIN,
     SweepPrediction,
+    Verdicts,
     bystanders,
     face_meets_target,
-    penetration,
+    obstacle_footprints,
     rack_parts,
-    sweep_failure,
+    sweep_disturbs,
+    unit,
 )
 from t2m_core.domain.state import GeometricState
 
 UNDER_DEPTH = (0.02, 0.12)
 """m: the screened sampler wants the box's predicted footprint this far inside the rack's along the
-push (:func:`~t2m_core.domain.primitives.sweep_screen.penetration`). Chosen on 370 measured task1
+push (:func:`~t2m_core.domain.geometry.penetration_depths`). Chosen on 370 measured task1
 pushes: 86 % of the pushes predicted in this band succeeded; shallower ones stay short of the rack,
 deeper ones drive the box or the hook into the far legs and move the rack."""
 
@@ -94,27 +96,39 @@ class Push(HookSweep):
         half_hook, clearance = hook_clearance(arguments[0], arguments[1])
         return -half_hook - clearance
 
-    def screen_sweep(self, state: GeometricState, arguments: Sequence[str], prediction: SweepPrediction) -> str | None:
+    def screen_sweep(self, state: GeometricState, arguments: Sequence[str], verdicts: Verdicts) -> None:
         """The head's face (not its corner) on the box; the swept box clear of the rack's legs and of
-        bystanders, the swept hook and the hand clear of bystanders; the box's predicted footprint
-        :data:`UNDER_DEPTH` inside the rack's, and the box pushed by d_Push + a margin."""
-        if not face_meets_target(prediction):
-            return "not_under"
-        target, _, rack = arguments
+        bystanders, the swept hook and the hand clear of bystanders; the box pushed by d_Push + a
+        margin, and its predicted footprint :data:`UNDER_DEPTH` inside the rack's."""
+        verdicts.check("not_under", lambda prediction: ~face_meets_target(prediction))
+        rack = arguments[2]
         others = bystanders(state, arguments)
         legs = rack_parts(state, rack, ("leg_0", "leg_1", "leg_2", "leg_3"))
-        reason = sweep_failure(prediction, hook_obstacles=others, target_obstacles=[*others, *legs], hand_obstacles=others)
-        if reason is not None:
-            return reason
-        start, end = prediction.target_start.position, prediction.target_end.position
-        if np.linalg.norm(end[:2]) <= np.linalg.norm(start[:2]) + self.min_distance + END_MARGIN:
-            return "not_pushed"
-        direction = (end - start)[:2] / max(float(np.linalg.norm((end - start)[:2])), 1e-12)
+        bystander_footprints = obstacle_footprints(others)
+        verdicts.check(
+            "disturbed",
+            partial(
+                sweep_disturbs,
+                hook_obstacles=bystander_footprints,
+                target_obstacles=obstacle_footprints([*others, *legs]),
+                hand_obstacles=bystander_footprints,
+            ),
+        )
+        verdicts.check("not_pushed", self._pushed_too_little)
         rack_footprint = object_geometry(rack, state.objects[rack]).footprints[0]
-        depth = penetration(prediction.target_end.footprints[0], rack_footprint, direction)
-        if depth < UNDER_DEPTH[0]:
-            return "not_under"
-        return "disturbed" if depth > UNDER_DEPTH[1] else None
+        verdicts.check("not_under", lambda prediction: _depth_under(prediction, rack_footprint) < UNDER_DEPTH[0])
+        verdicts.check("disturbed", lambda prediction: _depth_under(prediction, rack_footprint) > UNDER_DEPTH[1])
+
+    def _pushed_too_little(self, prediction: SweepPrediction) -> np.ndarray:
+        """``(B,)`` whether the box's predicted end is not d_Push + :data:`END_MARGIN` farther from the base."""
+        start = np.linalg.norm(prediction.target_xy)
+        return np.linalg.norm(prediction.target_end_xy, axis=-1) <= start + self.min_distance + END_MARGIN
+
+
+def _depth_under(prediction: SweepPrediction, rack_footprint: np.ndarray) -> np.ndarray:
+    """``(B,)`` how far the box's predicted footprint reaches into the rack's along its push, metres."""
+    end_footprint = prediction.target_start + prediction.target_shift[:, None]
+    return penetration_depths(end_footprint, rack_footprint, unit(prediction.target_shift))
 
 
 def _pushed_under(context: StepContext, *, start_distance: float, min_distance: float) -> str | None:

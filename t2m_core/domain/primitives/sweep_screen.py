@@ -13,11 +13,14 @@ crook against the handle; pushed, it slides along the angled head's normal, as a
 contact would (measured on task1 scenes: a box pushed with θ = π/8 drifts sideways by about 0.4 of
 its forward travel). Margins absorb the errors of that model. A screen reason is a prediction
 only; the primitive's own tests decide success.
+
+The screen judges a batch of draws at once (:class:`Verdicts`): the sampler screens up to 64 draws
+per scene, and array arithmetic over them costs about what one draw did in scalar code.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,11 +29,14 @@ from t2m_core.domain.constants import TABLE_X_MIN
 from t2m_core.domain.geometry import (
     ObjectGeometry,
     convex_hull_2d,
+    hull_distances,
     object_geometry,
-    polygon_distance,
-    polygons_overlap,
+    pad_polygons,
+    penetration_depths,
+    polygon_edges,
     quat_to_matrix,
-    yaw_to_quat,
+    translation_hull,
+    yawed_footprints,
 )
 from t2m_core.domain.objects import BoxPart, ObjectKind, object_spec
 from t2m_core.domain.state import GeometricState, ObjectPose
@@ -65,26 +71,55 @@ END_MARGIN = 0.03
 """m: how far inside its success region the predicted end of the target must lie."""
 
 
+HANDLE, HEAD = 0, 1
+"""Indices of the hook's convex parts (:meth:`~t2m_core.domain.objects.ObjectSpec.convex_parts`)."""
+
+
 @dataclass(frozen=True)
 class SweepPrediction:
-    """The geometry of one hook sweep, predicted from the start state.
+    """The geometry of B hook sweeps from one start state, predicted (world frame, metres).
 
     Attributes:
-        hook_reach: the hook's geometry at the reach pose.
-        hook_end: the hook's geometry at the sweep end.
-        target_start: the target's geometry now.
-        target_end: the target's predicted geometry after the sweep.
-        target_drift: where it ends if it also slides sideways along the head (Pull: into the crook
-            against the handle); ``target_end`` when no drift is predicted.
-        ee_path: ``(2, 2)`` xy of the EE at the reach and at the sweep end, metres.
+        hook_reach: ``(B, P, 4, 2)`` footprints of the hook's convex parts (handle, head) at the reach pose.
+        sweep: ``(B, 2)`` the hook's travel from the reach pose to the sweep end.
+        hook_yaw: ``(B,)`` the hook's yaw during the sweep, radians.
+        target_start: ``(K, 2)`` the target's footprint now.
+        target_xy: ``(2,)`` the target's position now.
+        target_shift: ``(B, 2)`` the target's predicted displacement.
+        drift_shift: ``(B, 2)`` its displacement if it also slides sideways along the head (Pull: into
+            the crook against the handle); ``target_shift`` where no drift is predicted.
+        ee_path: ``(B, 2, 2)`` xy of the EE at the reach and at the sweep end.
     """
 
-    hook_reach: ObjectGeometry
-    hook_end: ObjectGeometry
-    target_start: ObjectGeometry
-    target_end: ObjectGeometry
-    target_drift: ObjectGeometry
+    hook_reach: np.ndarray
+    sweep: np.ndarray
+    hook_yaw: np.ndarray
+    target_start: np.ndarray
+    target_xy: np.ndarray
+    target_shift: np.ndarray
+    drift_shift: np.ndarray
     ee_path: np.ndarray
+
+    def take(self, draws: np.ndarray) -> SweepPrediction:
+        """The prediction of the ``(n,)`` indexed draws only."""
+        shared = {"target_start": self.target_start, "target_xy": self.target_xy}
+        per_draw = ("hook_reach", "sweep", "hook_yaw", "target_shift", "drift_shift", "ee_path")
+        return SweepPrediction(**shared, **{name: getattr(self, name)[draws] for name in per_draw})
+
+    @property
+    def direction(self) -> np.ndarray:
+        """``(B, 2)`` unit direction of the sweep."""
+        return unit(self.sweep)
+
+    @property
+    def target_end_xy(self) -> np.ndarray:
+        """``(B, 2)`` the target's predicted end position, metres."""
+        return self.target_xy + self.target_shift
+
+
+def unit(vectors: np.ndarray) -> np.ndarray:
+    """``(..., 2)`` vectors scaled to unit length (a zero one stays zero)."""
+    return vectors / np.maximum(np.linalg.norm(vectors, axis=-1), 1e-12)[..., None]
 
 
 def predict_sweep(
@@ -93,120 +128,147 @@ def predict_sweep(
     hook: str,
     hook_reach: np.ndarray,
     hook_end: np.ndarray,
-    hook_yaw: float,
+    hook_yaw: np.ndarray,
     ee_path: np.ndarray,
     *,
     along_head_normal: bool = False,
     into_crook: bool = False,
 ) -> SweepPrediction:
-    """Predict the target's end pose: it moves with the hook once the head closes the gap to it.
+    """Predict the target's end pose for B sweeps: it moves with the hook once the head closes the gap to it.
 
     Args:
-        hook_reach, hook_end: ``(3,)`` the hook's origin at the reach and the sweep end, metres.
-        hook_yaw: the hook's yaw during the sweep, radians.
-        ee_path: ``(2, 2)`` EE xy at the reach and the sweep end.
+        hook_reach, hook_end: ``(B, 3)`` the hook's origin at the reach and the sweep end, metres.
+        hook_yaw: ``(B,)`` the hook's yaw during the sweep, radians.
+        ee_path: ``(B, 2, 2)`` EE xy at the reach and the sweep end.
         along_head_normal: the box slides along the head's normal (Push) instead of following the
             sweep (Pull).
         into_crook: the box may also slide sideways into the crook, up to the handle (Pull).
     """
-    quaternion = yaw_to_quat(hook_yaw)
-    reach = object_geometry(hook, ObjectPose(hook_reach, quaternion))
-    end = object_geometry(hook, ObjectPose(hook_end, quaternion))
-    start_pose = state.objects[target]
-    target_start = object_geometry(target, start_pose)
-    sweep = (hook_end - hook_reach)[:2]
-    length = float(np.linalg.norm(sweep))
-    direction = sweep / max(length, 1e-12)
-    gap = polygon_distance(_head(reach), target_start.footprints[0])
-    displacement = max(0.0, length - gap) * direction
+    hook_yaw = np.asarray(hook_yaw, dtype=np.float64)
+    reach = yawed_footprints(object_spec(hook), hook_reach, hook_yaw)
+    target_pose = state.objects[target]
+    target_start = object_geometry(target, target_pose).footprints[0]
+    sweep = (np.asarray(hook_end) - hook_reach)[..., :2]
+    direction = unit(sweep)
+    gap = _distances_to(reach[..., HEAD, :, :], target_start)
+    shift = np.maximum(0.0, np.linalg.norm(sweep, axis=-1) - gap)[..., None] * direction
     if along_head_normal:
-        normal = quat_to_matrix(quaternion)[:2, 0]  # the head's face looks along the hook's x axis
-        normal = normal if normal @ direction >= 0.0 else -normal
-        displacement = float(displacement @ normal) * normal
-    end_position = start_pose.position + np.array([displacement[0], displacement[1], 0.0])
-    target_end = object_geometry(target, ObjectPose(end_position, start_pose.quaternion))
-    target_drift = target_end
+        # The head's face looks along the hook's x axis.
+        normal = np.stack((np.cos(hook_yaw), np.sin(hook_yaw)), axis=-1)
+        normal = np.where((np.sum(normal * direction, axis=-1) >= 0.0)[..., None], normal, -normal)
+        shift = np.sum(shift * normal, axis=-1)[..., None] * normal
+    drift = shift
     if into_crook:
-        handle = reach.footprints[0]
-        across = np.array([-direction[1], direction[0]])
-        if (handle.mean(axis=0) - start_pose.position[:2]) @ across < 0.0:
-            across = -across
-        slide = polygon_distance(handle, target_start.footprints[0]) * across
-        target_drift = object_geometry(target, ObjectPose(end_position + np.array([*slide, 0.0]), start_pose.quaternion))
-    return SweepPrediction(reach, end, target_start, target_end, target_drift, np.asarray(ee_path, dtype=np.float64))
+        handle = reach[..., HANDLE, :, :]
+        across = np.stack((-direction[..., 1], direction[..., 0]), axis=-1)
+        away = np.sum((handle.mean(axis=-2) - target_pose.position[:2]) * across, axis=-1) < 0.0
+        across = np.where(away[..., None], -across, across)
+        drift = shift + _distances_to(handle, target_start)[..., None] * across
+    xy, ee_path = np.asarray(target_pose.position[:2], dtype=np.float64), np.asarray(ee_path, dtype=np.float64)
+    return SweepPrediction(reach, sweep, hook_yaw, target_start, xy, shift, drift, ee_path)
 
 
-def penetration(footprint: np.ndarray, region: np.ndarray, direction: np.ndarray, longest: float = 0.5) -> float:
-    """How far ``footprint`` reaches into the convex ``region`` along the unit ``direction``: the
-    shortest move back against it that separates them (0 when they do not overlap), metres."""
-    if not polygons_overlap(footprint, region):
-        return 0.0
-    low, high = 0.0, longest
-    for _ in range(20):  # bisection to 0.5 µm
-        middle = 0.5 * (low + high)
-        low, high = (middle, high) if polygons_overlap(footprint - middle * direction, region) else (low, middle)
-    return high
+def _distances_to(footprints: np.ndarray, polygon: np.ndarray) -> np.ndarray:
+    """``(B,)`` distances from ``(B, K, 2)`` convex footprints to one convex ``(L, 2)`` polygon, metres."""
+    return hull_distances(footprints, polygon_edges(footprints), polygon, polygon_edges(polygon))
 
 
-def reach_failure(prediction: SweepPrediction) -> str | None:
-    """``"unreachable"`` when the EE leaves the annulus the arm reaches at table height."""
-    radii = np.linalg.norm(prediction.ee_path, axis=1)
-    return None if np.all((radii >= EE_MIN_RADIUS) & (radii < EE_MAX_RADIUS)) else "unreachable"
+class Verdicts:
+    """The first predicted failure of each of B draws. Checks run in order, each on the draws that
+    passed every earlier one: the reasons a per-draw screen returning at its first failure gives.
+
+    Attributes:
+        prediction: the sweeps of all B draws.
+        reasons: per draw, the reason of the first check that failed it, or ``None``.
+    """
+
+    def __init__(self, prediction: SweepPrediction) -> None:
+        self.prediction = prediction
+        self.reasons: list[str | None] = [None] * len(prediction.sweep)
+        self._pending = np.arange(len(prediction.sweep))
+
+    def check(self, reason: str, fails: Callable[[SweepPrediction], np.ndarray]) -> None:
+        """Give ``reason`` to the pending draws that ``fails`` rejects; it maps the prediction of the n
+        draws still pending to ``(n,)`` bool."""
+        if self._pending.size == 0:
+            return
+        failed = np.asarray(fails(self.prediction.take(self._pending)), dtype=bool)
+        for draw in self._pending[failed]:
+            self.reasons[draw] = reason
+        self._pending = self._pending[~failed]
 
 
-def landing_failure(prediction: SweepPrediction) -> str | None:
-    """``"tipped_over"`` when the hook at the reach pose would come down on the target: its handle
-    within :data:`LANDING_CLEARANCE` of the target's footprint, or its head more than
+def unreachable(prediction: SweepPrediction) -> np.ndarray:
+    """``(B,)`` whether the EE leaves the annulus the arm reaches at table height (``"unreachable"``)."""
+    radii = np.linalg.norm(prediction.ee_path, axis=-1)
+    return ~np.all((radii >= EE_MIN_RADIUS) & (radii < EE_MAX_RADIUS), axis=-1)
+
+
+def lands_on_target(prediction: SweepPrediction) -> np.ndarray:
+    """``(B,)`` whether the hook at the reach pose would come down on the target (``"tipped_over"``):
+    its handle within :data:`LANDING_CLEARANCE` of the target's footprint, or its head more than
     :data:`HEAD_LANDING_DEPTH` into it along the sweep. (The heuristic's r_reach leaves the head
     about 0.01 m from a square-on box; a turned box's corner may reach under it by a few mm, which
     the measured sweeps survive.)"""
-    target = prediction.target_start.footprints[0]
-    if polygon_distance(prediction.hook_reach.footprints[0], target) < LANDING_CLEARANCE:
-        return "tipped_over"
-    sweep = (prediction.hook_end.position - prediction.hook_reach.position)[:2]
-    direction = sweep / max(float(np.linalg.norm(sweep)), 1e-12)
-    if penetration(_head(prediction.hook_reach), target, direction) > HEAD_LANDING_DEPTH:
-        return "tipped_over"
-    return None
+    target = prediction.target_start
+    handle_lands = _distances_to(prediction.hook_reach[:, HANDLE], target) < LANDING_CLEARANCE
+    head_depth = penetration_depths(prediction.hook_reach[:, HEAD], target, prediction.direction)
+    return handle_lands | (head_depth > HEAD_LANDING_DEPTH)
 
 
-def face_meets_target(prediction: SweepPrediction) -> bool:
-    """Whether the head's face, not its corner at the joint, meets the target square enough to carry
-    it: the target's extent across the sweep lies within the head's (a corner turns the box and sends
-    it sideways) and the face is within :data:`MAX_FACE_ANGLE` of the sweep."""
-    sweep = (prediction.hook_end.position - prediction.hook_reach.position)[:2]
-    direction = sweep / max(float(np.linalg.norm(sweep)), 1e-12)
-    face_normal = quat_to_matrix(prediction.hook_reach.quaternion)[:2, 0]
-    if abs(float(face_normal @ direction)) < np.cos(MAX_FACE_ANGLE):
-        return False
-    across = np.array([-direction[1], direction[0]])
-    head = _head(prediction.hook_reach) @ across
-    target = prediction.target_start.footprints[0] @ across
-    return bool(target.min() >= head.min() and target.max() <= head.max())
+def face_meets_target(prediction: SweepPrediction) -> np.ndarray:
+    """``(B,)`` whether the head's face, not its corner at the joint, meets the target square enough
+    to carry it: the target's extent across the sweep lies within the head's (a corner turns the box
+    and sends it sideways) and the face is within :data:`MAX_FACE_ANGLE` of the sweep."""
+    direction = prediction.direction
+    face_normal = np.stack((np.cos(prediction.hook_yaw), np.sin(prediction.hook_yaw)), axis=-1)
+    square = np.abs(np.sum(face_normal * direction, axis=-1)) >= np.cos(MAX_FACE_ANGLE)
+    across = np.stack((-direction[:, 1], direction[:, 0]), axis=-1)
+    head = np.sum(prediction.hook_reach[:, HEAD] * across[:, None], axis=-1)  # (B, 4)
+    target = across @ prediction.target_start.T  # (B, K)
+    return square & (target.min(axis=-1) >= head.min(axis=-1)) & (target.max(axis=-1) <= head.max(axis=-1))
 
 
-def sweep_failure(
+def sweep_disturbs(
     prediction: SweepPrediction,
     *,
-    hook_obstacles: Sequence[ObjectGeometry],
-    target_obstacles: Sequence[ObjectGeometry],
-    hand_obstacles: Sequence[ObjectGeometry],
-) -> str | None:
-    """``"disturbed"`` when the swept hook or the swept target comes within :data:`TOOL_CLEARANCE` of
-    one of its obstacles, or the EE's path within :data:`HAND_CLEARANCE` of a hand obstacle."""
-    hook = [_swept(a, b) for a, b in zip(prediction.hook_reach.footprints, prediction.hook_end.footprints, strict=True)]
-    target_footprints = (prediction.target_start, prediction.target_end, prediction.target_drift)
-    target = [convex_hull_2d(np.concatenate([geometry.footprints[0] for geometry in target_footprints]))]
-    for regions, obstacles, clearance in (
-        (hook, hook_obstacles, TOOL_CLEARANCE),
-        (target, target_obstacles, TOOL_CLEARANCE),
-        ([prediction.ee_path], hand_obstacles, HAND_CLEARANCE),
-    ):
-        for obstacle in obstacles:
-            for footprint in obstacle.footprints:
-                if any(polygon_distance(region, footprint) < clearance for region in regions):
-                    return "disturbed"
-    return None
+    hook_obstacles: np.ndarray,
+    target_obstacles: np.ndarray,
+    hand_obstacles: np.ndarray,
+) -> np.ndarray:
+    """``(B,)`` whether the swept hook or the swept target comes within :data:`TOOL_CLEARANCE` of one
+    of its obstacles, or the EE's path within :data:`HAND_CLEARANCE` of a hand obstacle
+    (``"disturbed"``). Obstacles are ``(N, K, 2)`` footprints (:func:`obstacle_footprints`)."""
+    still = np.zeros_like(prediction.sweep)
+    hook = translation_hull(prediction.hook_reach, np.stack((still, prediction.sweep), axis=-2)[:, None])
+    target_shifts = np.stack((still, prediction.target_shift, prediction.drift_shift), axis=-2)
+    target = translation_hull(prediction.target_start, target_shifts)
+    hand = (prediction.ee_path, prediction.ee_path[:, None])  # one segment
+    return (
+        _comes_near(*hook, hook_obstacles, TOOL_CLEARANCE)
+        | _comes_near(*target, target_obstacles, TOOL_CLEARANCE)
+        | _comes_near(*hand, hand_obstacles, HAND_CLEARANCE)
+    )
+
+
+def _comes_near(points: np.ndarray, edges: np.ndarray, obstacles: np.ndarray, clearance: float) -> np.ndarray:
+    """``(B,)`` whether any region of a draw (``(B, ..., M, 2)`` points, ``(B, ..., S, 2, 2)`` edges, as
+    :func:`~t2m_core.domain.geometry.hull_distances` takes them) comes within ``clearance`` metres of
+    any ``(N, K, 2)`` obstacle."""
+    # Most regions are far from most obstacles: the gap between bounding boxes, which never exceeds
+    # the distance, rules those pairs out before the exact test.
+    low, high = points.min(axis=-2)[..., None, :], points.max(axis=-2)[..., None, :]
+    gaps = np.maximum(0.0, np.maximum(obstacles.min(axis=-2) - high, low - obstacles.max(axis=-2)))  # (B, ..., N, 2)
+    *region, obstacle = np.nonzero(np.sum(gaps * gaps, axis=-1) < clearance**2)
+    near = np.zeros(len(points), dtype=bool)
+    distances = hull_distances(points[*region], edges[*region], obstacles[obstacle], polygon_edges(obstacles[obstacle]))
+    near[region[0][distances < clearance]] = True
+    return near
+
+
+def obstacle_footprints(geometries: Sequence[ObjectGeometry]) -> np.ndarray:
+    """``(N, K, 2)`` the footprints of every convex part of the objects, padded to one size."""
+    return pad_polygons([footprint for geometry in geometries for footprint in geometry.footprints])
 
 
 def bystanders(state: GeometricState, arguments: Sequence[str]) -> list[ObjectGeometry]:
@@ -232,13 +294,3 @@ def _part_geometry(name: str, spec, part: BoxPart, pose: ObjectPose) -> ObjectGe
     corners = (np.asarray(part.center) + 0.5 * signs * np.asarray(part.size)) @ rotation.T + pose.position
     aabb = np.stack((corners.min(axis=0), corners.max(axis=0)))
     return ObjectGeometry(name, spec, pose.position, pose.quaternion, corners[None], aabb, (convex_hull_2d(corners[:, :2]),))
-
-
-def _head(hook: ObjectGeometry) -> np.ndarray:
-    """The head's footprint (the hook's second convex part)."""
-    return hook.footprints[1]
-
-
-def _swept(start: np.ndarray, end: np.ndarray) -> np.ndarray:
-    """Footprint swept by a convex polygon translated from ``start`` to ``end``: their hull."""
-    return convex_hull_2d(np.concatenate((start, end)))
