@@ -2,7 +2,8 @@
 
 One episode per (planner, task, seed), each in its own run directory ``OUT/<planner>/<task>/seed<N>``.
 The grid is resumable: an episode whose ``result.json`` exists and was not interrupted is kept; any
-other is run again. Episodes run in local worker processes. Base seeds are spaced
+other is run again. Episodes are the tasks of an executor (local worker processes or a Ray cluster,
+:mod:`t2m_core.executors`), each writing its own run directory. Base seeds are spaced
 :data:`SEED_SPACING` apart so that no two episodes of a task share an accepted scene (a reset walks
 from its base seed to the first accepted candidate).
 """
@@ -10,16 +11,17 @@ from its base seed to the first accepted candidate).
 from __future__ import annotations
 
 import csv
+import functools
 import io
 import json
 from collections import defaultdict
 from collections.abc import Callable, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from t2m_core.atomic_files import write_bytes_atomic, write_json_atomic, write_text_atomic
+from t2m_core.executors import Executor, LocalExecutor, TaskCounts
 
 SEED_SPACING = 1000
 """Base seed of seed index s: s × 1000 (resets reject at most a few hundred candidates)."""
@@ -64,30 +66,37 @@ def run_grid(
     base_overrides: Sequence[str],
     *,
     workers: int = 1,
+    executor: Executor | None = None,
     on_result: Callable[[Episode, dict[str, Any]], None] | None = None,
+    on_status: Callable[[TaskCounts], None] | None = None,
 ) -> dict[Episode, dict[str, Any]]:
-    """Run every unfinished episode; return every episode's result."""
+    """Run every unfinished episode; return every episode's result.
+
+    Args:
+        episodes: the grid.
+        out: the evaluation directory; the executor's workers must see it.
+        base_overrides: ``--set`` overrides for every episode.
+        workers: local worker processes, when no ``executor`` is given.
+        executor: where the episode tasks run.
+        on_result: called with each episode that finishes.
+        on_status: called when the tasks' counts change.
+    """
+    out = Path(out).resolve()  # a worker's working directory is not the driver's
+    executor = executor or LocalExecutor(workers)
     results = {e: r for e in episodes if (r := finished(e, out)) is not None}
     pending = [e for e in episodes if e not in results]
-    if workers <= 1:
-        for episode in pending:
-            results[episode] = _run_one(episode, out, list(base_overrides))
-            if on_result:
-                on_result(episode, results[episode])
-        return results
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        running = {pool.submit(_run_one, e, out, list(base_overrides)): e for e in pending}
-        while running:
-            done, _ = wait(running, return_when=FIRST_COMPLETED)
-            for future in done:
-                episode = running.pop(future)
-                results[episode] = future.result()
-                if on_result:
-                    on_result(episode, results[episode])
+    if pending:
+        out.mkdir(parents=True, exist_ok=True)
+        executor.require_shared(out)
+    for episode, result in executor.map(functools.partial(_run_one, out=out, overrides=list(base_overrides)), pending, on_status=on_status):
+        results[episode] = result
+        if on_result:
+            on_result(episode, result)
     return results
 
 
-def _run_one(episode: Episode, out: Path, overrides: list[str]) -> dict[str, Any]:
+def _run_one(episode: Episode, *, out: Path, overrides: list[str]) -> dict[str, Any]:
+    """The task of one episode, run by a worker: the episode writes its own run directory."""
     from t2m_core.config.resolve import resolve_config
     from t2m_core.episode import run_episode
     from t2m_core.registry import get_registry
@@ -138,9 +147,10 @@ def summarise(results: dict[Episode, dict[str, Any]]) -> list[dict[str, Any]]:
     return rows
 
 
-def write_tables(rows: list[dict[str, Any]], out: Path) -> None:
-    """``results.json``, ``results.csv``, ``results.md`` and ``success.png`` in ``out``."""
-    write_json_atomic(out / "results.json", {"rows": rows, "paper": PAPER_SUCCESS})
+def write_tables(rows: list[dict[str, Any]], out: Path, executor: dict[str, Any] | None = None) -> None:
+    """``results.json``, ``results.csv``, ``results.md`` and ``success.png`` in ``out``;
+    ``results.json`` also records ``executor``, the executor of the run that wrote the tables."""
+    write_json_atomic(out / "results.json", {"rows": rows, "paper": PAPER_SUCCESS, "executor": executor})
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=COLUMNS)
     writer.writeheader()

@@ -10,6 +10,7 @@ from typing import Annotated
 import typer
 
 from t2m_core.atomic_files import ensure_writable_directory
+from t2m_core.cli.executor_flags import AddressFlag, ExecutorFlag, task_status
 from t2m_core.errors import T2MError
 
 
@@ -18,7 +19,9 @@ def datagen(
     split: Annotated[str, typer.Option("--split", help="train, validation or invalid (OOD calibration, not simulated).")],
     size: Annotated[int, typer.Option("--size", min=1, help="Transitions per skill in the split.")],
     out: Annotated[Path, typer.Option("--out", help="Dataset directory (DIR/<skill>/<split>/...).")],
-    workers: Annotated[int, typer.Option("--workers", min=0, help="Worker processes (0: one per core).")] = 0,
+    workers: Annotated[int, typer.Option("--workers", min=0, help="Chunks generated at once (0: one per core, or per CPU of the Ray cluster).")] = 0,
+    executor: ExecutorFlag = "local",
+    address: AddressFlag = None,
     sim: Annotated[str, typer.Option("--sim", help="Simulator plugin (see `t2m list-plugins`).")] = "mujoco",
     seed: Annotated[int, typer.Option("--seed", min=0, help="Base seed of the dataset.")] = 0,
     chunk_size: Annotated[int, typer.Option("--chunk-size", min=1, help="Transitions per shard.")] = 250,
@@ -27,9 +30,11 @@ def datagen(
 ) -> None:
     """Generate (or finish generating) a split of skill data: simulated transitions of symbolically
     valid skills (train, validation) or unsimulated invalid ones (invalid). Rerunning the same
-    command resumes: finished shards are kept."""
+    command resumes: finished shards are kept. With --executor ray the chunks run on a Ray cluster,
+    whose nodes must all see --out; the shards are the same bytes either way."""
     from t2m_core.data.generate import DatasetJob, default_workers, generate_dataset
     from t2m_core.data.scenes import DATA_SKILLS
+    from t2m_core.executors import make_executor
     from t2m_core.registry import get_registry
 
     skills = DATA_SKILLS if skill == "all" else (skill,)
@@ -39,16 +44,24 @@ def datagen(
         sim = get_registry().get("simulator", sim).name  # an unknown name fails here, with the choices
     ensure_writable_directory(out)
     manifests = {}
-    for name in skills:
-        job = DatasetJob(out, name, split, size, chunk_size, seed, sampler, sim)
-        manifests[name] = _run_with_progress(job, workers or default_workers(), generate_dataset)
+    with make_executor(executor, workers=workers or (default_workers() if executor == "local" else 0), address=address) as pool:
+        for name in skills:
+            job = DatasetJob(out.resolve(), name, split, size, chunk_size, seed, sampler, sim)
+            manifests[name] = _run_with_progress(job, pool, generate_dataset)
     if as_json:
         typer.echo(json.dumps(manifests, indent=2))
 
 
-def _run_with_progress(job, workers: int, generate) -> dict:
+def _run_with_progress(job, executor, generate) -> dict:
     from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
 
     console = Console(stderr=True)
     started = time.perf_counter()
@@ -58,22 +71,24 @@ def _run_with_progress(job, workers: int, generate) -> dict:
         MofNCompleteColumn(),
         TextColumn("{task.fields[rate]} transitions/s"),
         TextColumn("success {task.fields[success]}"),
+        TextColumn("{task.fields[tasks]}"),
         TimeElapsedColumn(),
         TimeRemainingColumn(),
     )
     with Progress(*columns, console=console, transient=False) as bar:
-        task = bar.add_task("chunks", total=None, rate="-", success="-")
+        task = bar.add_task("chunks", total=None, rate="-", success="-", tasks="")
 
         def update(progress) -> None:
             elapsed = time.perf_counter() - started
             rate = f"{progress.new_transitions / elapsed:.1f}" if progress.new_transitions else "-"
             success = f"{progress.successes / progress.transitions:.0%}" if progress.transitions else "-"
-            bar.update(task, total=progress.chunks_total, completed=progress.chunks_done, rate=rate, success=success)
+            tasks = task_status(progress.running, progress.failed, progress.retried)
+            bar.update(task, total=progress.chunks_total, completed=progress.chunks_done, rate=rate, success=success, tasks=tasks)
 
-        manifest = generate(job, workers=workers, on_progress=update)
+        manifest = generate(job, executor=executor, on_progress=update)
     console.print(
         f"{job.skill} {job.split}: {manifest['count']} transitions, success rate {manifest['success_rate']:.1%} "
-        f"-> {job.directory}"
+        f"-> {job.directory} ({executor.name} executor, {executor.workers} worker{'s' if executor.workers > 1 else ''})"
     )
     return manifest
 

@@ -8,6 +8,7 @@ from typing import Annotated
 
 import typer
 
+from t2m_core.cli.executor_flags import AddressFlag, ExecutorFlag, task_status
 from t2m_core.errors import T2MError
 
 
@@ -16,15 +17,20 @@ def evaluate(
     planners: Annotated[str, typer.Option("--planners", help="Comma-separated task planners.")] = "hybrid,shooting,greedy-search,saycan-gs,innermono-gs",
     tasks: Annotated[str, typer.Option("--tasks", help="Comma-separated task ids, or all.")] = "all",
     seeds: Annotated[str, typer.Option("--seeds", help="Seed indices: 0-9 or 0,3,5 (base seed = index x 1000).")] = "0-9",
-    workers: Annotated[int, typer.Option("--workers", min=1, help="Parallel episodes.")] = 1,
+    workers: Annotated[int | None, typer.Option("--workers", min=1, help="Parallel episodes (default: 1 locally, one per CPU of a Ray cluster).")] = None,
+    executor: ExecutorFlag = "local",
+    address: AddressFlag = None,
     overrides: Annotated[list[str] | None, typer.Option("--set", help="Config override for every episode (repeatable).")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the results table as JSON on stdout.")] = False,
 ) -> None:
     """Run (or finish running) every episode of the grid and write results.md / .json / .csv and a
-    plot of success per task and planner beside the paper's figures."""
+    plot of success per task and planner beside the paper's figures. With --executor ray the
+    episodes run on a Ray cluster, whose nodes must all see --out."""
     from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from t2m_core.evaluation import grid, run_grid, summarise, write_tables
+    from t2m_core.evaluation import finished, grid, run_grid, summarise, write_tables
+    from t2m_core.executors import make_executor
     from t2m_core.registry import get_registry
     from t2m_core.tasks import task_ids
 
@@ -37,14 +43,26 @@ def evaluate(
     episodes = grid(planner_names, task_list, _seed_indices(seeds))
     console = Console(stderr=True)
     out.mkdir(parents=True, exist_ok=True)
+    columns = (TextColumn("[bold]episodes[/]"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[tasks]}"), TimeElapsedColumn())
+    with (
+        make_executor(executor, workers=workers or (1 if executor == "local" else 0), address=address) as pool,
+        Progress(*columns, console=console) as bar,
+    ):
+        kept = sum(finished(episode, out) is not None for episode in episodes)  # a resumed grid starts where it stopped
+        task = bar.add_task("episodes", total=len(episodes), completed=kept, tasks="")
 
-    def show(episode, result) -> None:
-        verdict = "[green]success[/]" if result["success"] else f"[red]{result['failure_type']}[/]"
-        console.print(f"{episode.planner} {episode.task} seed {episode.seed_index}: {verdict} ({result['timings']['total']:.0f} s)")
+        def show(episode, result) -> None:
+            verdict = "[green]success[/]" if result["success"] else f"[red]{result['failure_type']}[/]"
+            bar.console.print(f"{episode.planner} {episode.task} seed {episode.seed_index}: {verdict} ({result['timings']['total']:.0f} s)")
+            bar.advance(task)
 
-    results = run_grid(episodes, out, overrides or [], workers=workers, on_result=show)
+        def status(counts) -> None:
+            bar.update(task, tasks=task_status(counts.running, counts.failed, counts.retried))
+
+        results = run_grid(episodes, out, overrides or [], executor=pool, on_result=show, on_status=status)
+        described = pool.describe()
     rows = summarise(results)
-    write_tables(rows, out)
+    write_tables(rows, out, described)
     console.print((out / "results.md").read_text(), highlight=False)
     if as_json:
         typer.echo(json.dumps(rows, indent=2))

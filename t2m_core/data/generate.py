@@ -7,31 +7,42 @@ Layout of a dataset directory::
     DIR/<skill>/<split>/manifest.json             counts, success rate, failures, seeds, simulator, version
 
 A run first keeps every shard already on disk that belongs to the same dataset (same skill, split,
-chunk size, seed, sampler and simulator); it then generates the missing chunks, in worker
-processes, and finally writes the manifest from the shards. A killed run loses at most the chunks
-in flight; rerunning the same command finishes the job.
+chunk size, seed, sampler and simulator); it then generates the missing chunks as tasks of an
+executor (local worker processes or a Ray cluster: each task writes its own shard), and finally
+writes the manifest from the shards. A killed run loses at most the chunks in flight; rerunning the
+same command finishes the job.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
+import json
 import math
 import os
 from collections import Counter
-from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from t2m_core.atomic_files import write_json_atomic
 from t2m_core.data.chunks import ChunkSpec, ChunkStats, generate_chunk
-from t2m_core.data.records import SHARD_FORMAT, FAILURE_VOCABULARY, ShardError, Transitions, read_shard, read_shard_header, write_shard
+from t2m_core.data.records import (
+    FAILURE_VOCABULARY,
+    SHARD_FORMAT,
+    ShardError,
+    Transitions,
+    read_shard,
+    read_shard_header,
+    write_shard,
+)
+from t2m_core.executors import Executor, LocalExecutor, TaskCounts
 
 MANIFEST_NAME = "manifest.json"
 TIMINGS_NAME = "timings.jsonl"
-"""Per-chunk wall and reset seconds, one JSON line each: the cost of the data, kept out of the shards
-so that a chunk's shard is byte-identical wherever it ran."""
+"""Per-chunk wall and reset seconds and the executor that ran it, one JSON line each: the cost of the
+data, kept out of the shards so that a chunk's shard is byte-identical wherever it ran."""
 DEFAULT_CHUNK_SIZE = 250
 """Transitions per chunk: small enough that a killed run loses little, large enough to amortise a
 worker's start (seconds of simulation each)."""
@@ -91,7 +102,8 @@ class DatasetJob:
 
 @dataclass
 class Progress:
-    """Running totals reported to a progress callback after every finished chunk."""
+    """Running totals reported to a progress callback after every finished chunk, and the chunk
+    tasks running, failed and retried (:class:`~t2m_core.executors.TaskCounts`)."""
 
     chunks_done: int = 0
     chunks_total: int = 0
@@ -99,24 +111,32 @@ class Progress:
     successes: int = 0
     new_transitions: int = 0
     seconds: float = 0.0
+    running: int = 0
+    failed: int = 0
+    retried: int = 0
 
 
 def generate_dataset(
     job: DatasetJob,
     *,
     workers: int = 1,
+    executor: Executor | None = None,
     on_progress: Callable[[Progress], None] | None = None,
 ) -> dict[str, Any]:
     """Generate the missing chunks of ``job`` and write its manifest; returns the manifest.
 
     Args:
         job: the split to generate.
-        workers: worker processes (1: in this process).
-        on_progress: called after each finished chunk (and once at the start).
+        workers: local worker processes (1: in this process), when no ``executor`` is given.
+        executor: where the chunk tasks run (:mod:`t2m_core.executors`); its workers must see
+            ``job.out``.
+        on_progress: called when a chunk finishes or the tasks' counts change (and once at the start).
 
     Raises:
-        DataGenerationError: a chunk cannot be generated.
+        DataGenerationError: a chunk cannot be generated (the chunks finished before are kept).
     """
+    job = replace(job, out=Path(job.out).resolve())  # a worker's working directory is not the driver's
+    executor = executor or LocalExecutor(workers)
     specs = job.chunks()
     progress = Progress(chunks_total=len(specs))
     pending = []
@@ -130,18 +150,25 @@ def generate_dataset(
             progress.successes += header["successes"]
     if on_progress:
         on_progress(progress)
-    for spec, transitions, stats in _run_chunks(job, pending, workers):
-        header = {**job.shard_header(spec), "count": len(transitions), "successes": int(transitions.success.sum()), "stats": stats.as_dict()}
-        write_shard(job.directory / spec.filename, transitions, header)
-        _append_timing(job, spec, stats)
+
+    def on_status(counts: TaskCounts) -> None:
+        progress.running, progress.failed, progress.retried = counts.running, counts.failed, counts.retried
+        if on_progress:
+            on_progress(progress)
+
+    if pending:
+        job.directory.mkdir(parents=True, exist_ok=True)
+        executor.require_shared(job.directory)
+    for spec, (header, stats) in executor.map(functools.partial(make_chunk, job), pending, on_status=on_status):
+        _append_timing(job, spec, stats, executor.name)
         progress.chunks_done += 1
-        progress.transitions += len(transitions)
-        progress.new_transitions += len(transitions)
+        progress.transitions += header["count"]
+        progress.new_transitions += header["count"]
         progress.successes += header["successes"]
         progress.seconds += stats.seconds
         if on_progress:
             on_progress(progress)
-    return write_manifest(job)
+    return write_manifest(job, executor.describe())
 
 
 def _existing_header(job: DatasetJob, spec: ChunkSpec) -> dict[str, Any] | None:
@@ -160,24 +187,13 @@ def _existing_header(job: DatasetJob, spec: ChunkSpec) -> dict[str, Any] | None:
     return header
 
 
-def _run_chunks(job: DatasetJob, specs: Sequence[ChunkSpec], workers: int) -> Iterator[tuple[ChunkSpec, Transitions, ChunkStats]]:
-    if not specs:
-        return
-    if workers <= 1:
-        for spec in specs:
-            yield spec, *_chunk_in_worker(job, spec)
-        return
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        remaining = list(specs)
-        running: dict[Future, ChunkSpec] = {}
-        while remaining or running:
-            while remaining and len(running) < 2 * workers:
-                spec = remaining.pop(0)
-                running[pool.submit(_chunk_in_worker, job, spec)] = spec
-            done, _ = wait(running, return_when=FIRST_COMPLETED)
-            for future in done:
-                spec = running.pop(future)
-                yield spec, *future.result()
+def make_chunk(job: DatasetJob, spec: ChunkSpec) -> tuple[dict[str, Any], ChunkStats]:
+    """The task of one chunk, run by a worker: generate it and write its shard (atomically); returns
+    the shard's header and what the chunk cost."""
+    transitions, stats = _chunk_in_worker(job, spec)
+    header = {**job.shard_header(spec), "count": len(transitions), "successes": int(transitions.success.sum()), "stats": stats.as_dict()}
+    write_shard(job.directory / spec.filename, transitions, header)
+    return header, stats
 
 
 _WORKER_SIMULATORS: dict[tuple[str, str], Any] = {}
@@ -202,8 +218,13 @@ def _chunk_in_worker(job: DatasetJob, spec: ChunkSpec) -> tuple[Transitions, Chu
 # --------------------------------------------------------------------------------------------------
 
 
-def write_manifest(job: DatasetJob) -> dict[str, Any]:
-    """Summarise the job's shards into ``manifest.json`` (atomically) and return it."""
+def write_manifest(job: DatasetJob, executor: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Summarise the job's shards into ``manifest.json`` (atomically) and return it.
+
+    Args:
+        job: the split.
+        executor: the executor of this run (``{"name": ..., "workers": ...}``), recorded as is.
+    """
     from t2m_core import __version__
 
     shards, failures = [], Counter()
@@ -237,24 +258,23 @@ def write_manifest(job: DatasetJob) -> dict[str, Any]:
         "simulator": {"name": job.simulator, "options": job.simulator_options} if job.split != "invalid" else None,
         "failure_vocabulary": list(FAILURE_VOCABULARY),
         **_timing_summary(job),
+        "executor": executor,
         "shards": shards,
     }
     write_json_atomic(job.directory / MANIFEST_NAME, manifest)
     return manifest
 
 
-def _append_timing(job: DatasetJob, spec: ChunkSpec, stats: ChunkStats) -> None:
-    import json
-
-    record = {"chunk": spec.index, "count": spec.size, "seconds": round(stats.seconds, 3), "reset_seconds": round(stats.reset_seconds, 3)}
+def _append_timing(job: DatasetJob, spec: ChunkSpec, stats: ChunkStats, executor: str) -> None:
+    record = {"chunk": spec.index, "count": spec.size, "seconds": round(stats.seconds, 3), "reset_seconds": round(stats.reset_seconds, 3),
+              "executor": executor}
     with open(job.directory / TIMINGS_NAME, "a", encoding="utf-8") as handle:
         handle.write(json.dumps(record) + "\n")
 
 
 def _timing_summary(job: DatasetJob) -> dict[str, Any]:
-    """Seconds per chunk (the latest run of each) summed: what the data cost, per worker-second."""
-    import json
-
+    """Seconds per chunk (the latest run of each) summed: what the data cost, per worker-second; and
+    how many chunks each executor made."""
     path = job.directory / TIMINGS_NAME
     latest: dict[int, dict[str, Any]] = {}
     if path.exists():
@@ -270,6 +290,7 @@ def _timing_summary(job: DatasetJob) -> dict[str, Any]:
         "worker_seconds": round(seconds, 1),
         "reset_seconds": round(sum(r["reset_seconds"] for r in latest.values()), 1),
         "transitions_per_worker_second": round(count / seconds, 3) if seconds else None,
+        "chunks_by_executor": dict(sorted(Counter(r.get("executor", "local") for r in latest.values()).items())),
     }
 
 
@@ -284,8 +305,6 @@ def load_split(directory: Path | str) -> Transitions:
     Raises:
         ShardError: no manifest, or a shard that is missing or does not match its recorded digest.
     """
-    import json
-
     directory = Path(directory)
     manifest_path = directory / MANIFEST_NAME
     if not manifest_path.exists():
