@@ -1,8 +1,10 @@
 """``t2m llm``: ask the language model Text2Motion's questions about one task scene.
 
-- ``t2m llm goal --task ID --seed N [--llm NAME] [--json]``: the predicted goal alternatives and
-  whether they are valid in the scene; exits 1 when no valid goal came back or the goal differs from
-  the task's ground-truth goal alternatives;
+- ``t2m llm goal --task ID --seed N [--instruction TEXT] [--llm NAME] [--json]``: the predicted
+  goal alternatives, or "no valid goal" and why; with the task's own instruction, whether the goal
+  means the task's ground truth (judged on the states reachable from the scene:
+  docs/guide/language-models.md#judging-goals); exits 1 when no valid goal came back or, for the
+  task's instruction, the goal differs from the task's;
 - ``t2m llm next --task ID --seed N --executed "pick(a),place(a, rack)"``: the K candidate next
   skills with their log-likelihoods and usefulness scores.
 
@@ -38,9 +40,18 @@ ConstrainedOption = Annotated[
 
 
 def _session(
-    task_id: str, seed: int, llm: str, settings: list[str] | None, transcript: Path | None, constrained: bool
+    task_id: str,
+    seed: int,
+    llm: str,
+    settings: list[str] | None,
+    transcript: Path | None,
+    constrained: bool,
+    instruction: str | None = None,
 ) -> tuple[Task, LanguageSession]:
-    """The task and a language session on its scene for ``seed`` (the model built from ``--llm``/``--set``)."""
+    """The task and a language session on its scene for ``seed`` (the model built from
+    ``--llm``/``--set``), asking ``instruction`` instead of the task's when given."""
+    from dataclasses import replace
+
     from rich.console import Console
 
     from t2m_core.config.resolve import parse_override
@@ -58,6 +69,8 @@ def _session(
         options[path[0]] = value
     task = load_task(task_id)
     scene, _ = describe_task_scene(task, seed)
+    if instruction is not None:
+        scene = replace(scene, instruction=instruction.strip())
     with Console(stderr=True).status(f"loading language model {llm!r}"):
         model = create_language_model(llm, options, transcript=transcript)
     return task, LanguageSession(model, scene, seed=seed, constrained=constrained)
@@ -67,49 +80,63 @@ def _session(
 def goal_command(
     task: TaskOption,
     seed: SeedOption = 0,
+    instruction: Annotated[
+        str | None, typer.Option("--instruction", help="Ask this instead of the task's instruction, on the task's scene.")
+    ] = None,
     llm: LlmOption = "local",
     settings: SetOption = None,
     transcript: TranscriptOption = None,
     constrained: ConstrainedOption = True,
     as_json: JsonOption = False,
 ) -> None:
-    """Predict the goal of the task's instruction as DNF alternatives, and validate them.
+    """Predict the goal of the task's instruction (or --instruction) as DNF alternatives.
 
-    Exits 1 when the model gives no valid goal or a goal other than the task's alternatives."""
+    Exits 1 when the model gives no valid goal or, for the task's own instruction, a goal that does
+    not mean the task's goal alternatives."""
     from rich.console import Console
 
-    task_spec, session = _session(task, seed, llm, settings, transcript, constrained)
+    from t2m_core.language.goal_judging import judge_goal, reachable_states
+    from t2m_core.tasks.symbolic_model import initial_facts
+
+    task_spec, session = _session(task, seed, llm, settings, transcript, constrained, instruction)
     with Console(stderr=True).status("predicting the goal"):
         query = session.predict_goal()
-    truth = {frozenset(map(str, alternative)) for alternative in task_spec.goal}
-    predicted = None if query.goal is None else {frozenset(map(str, alternative)) for alternative in query.goal}
+    own = instruction is None
+    judgement = judge_goal(query.goal, task_spec.goal, reachable_states(initial_facts(task_spec), task_spec.objects)) if own else None
     report = {
         "task": task_spec.id,
         "seed": seed,
-        "instruction": task_spec.instruction,
+        "instruction": session.scene.instruction,
         "relationships": list(session.scene.relationships),
         "valid": query.goal is not None,
         "goal": None if query.goal is None else query.goal.to_lists(),
-        "matches_task_goal": predicted == truth,
+        "no_goal": None if query.no_goal is None else {"kind": query.no_goal.kind, "reason": query.no_goal.reason},
+        "matches_task_goal": None if judgement is None else judgement.strict,
+        "plan_level_match": None if judgement is None else judgement.plan_level,
         "attempts": [{"answer": attempt.answer, "problem": attempt.problem} for attempt in query.attempts],
     }
+    failed = query.goal is None or (own and not report["matches_task_goal"])
     if as_json:
         typer.echo(json.dumps(report, indent=2))
-        if not report["matches_task_goal"]:
+        if failed:
             raise typer.Exit(1)
         return
     console = Console()
-    console.print(f"[bold]{task_spec.id}[/bold] seed {seed}: {task_spec.instruction}")
+    console.print(f"[bold]{task_spec.id}[/bold] seed {seed}: {report['instruction']}")
     for index, attempt in enumerate(query.attempts, start=1):
         status = "[green]valid[/green]" if attempt.problem is None else f"[red]invalid[/red]: {attempt.problem}"
         console.print(f"attempt {index}: {attempt.answer.strip()}  ({status})", markup=True, highlight=False)
+    if query.no_goal is not None:
+        console.print(f"[red]no valid goal[/red]: {query.no_goal.reason}", highlight=False)
+        raise typer.Exit(1)
     if query.goal is None:
         console.print("[red]no valid goal after the retries: a planning failure[/red]")
         raise typer.Exit(1)
     for index, alternative in enumerate(query.goal.to_lists(), start=1):
         console.print(f"  alternative {index}: {', '.join(alternative)}", highlight=False)
-    console.print(f"matches the task's goal alternatives: {report['matches_task_goal']}")
-    if not report["matches_task_goal"]:
+    if own:
+        console.print(f"matches the task's goal alternatives: {report['matches_task_goal']}")
+    if failed:
         raise typer.Exit(1)
 
 
@@ -146,7 +173,8 @@ def next_command(
             status.update("predicting the goal")
             query = session.predict_goal()
             if query.goal is None:
-                raise typer.BadParameter("the model gave no valid goal; pass one with --goal", param_hint="--goal")
+                why = f" ({query.no_goal.reason})" if query.no_goal else ""
+                raise typer.BadParameter(f"the model gave no valid goal{why}; pass one with --goal", param_hint="--goal")
             prompt_goal = query.goal
         status.update("generating candidates")
         candidates, attempts = session.generate_next(prompt_goal, calls)

@@ -50,7 +50,8 @@ def goal_grammar(
     relations: Sequence[str] = GOAL_RELATIONS,
     count: CountCue | None = None,
 ) -> str:
-    """Grammar of ``[['on(a, b)', ...], ...]`` over this scene's objects.
+    """Grammar of ``[['on(a, b)', ...], ...]`` over this scene's objects, or ``[]``: no goal
+    expresses the instruction (docs/guide/language-models.md#no-valid-goal).
 
     Args:
         objects: the scene's objects.
@@ -66,7 +67,7 @@ def goal_grammar(
         more_counted = f'("," ws counted){{{count.k - 1}}} ' if count.k > 1 else ""
         pins = f'("," ws pin){{0,{others}}} ' if count.pins and others > 0 else ""
         return (
-            f'root ::= ws "[" {_repeat("alt", 1, math.comb(len(count.boxes), count.k))} "]"\n'
+            f'root ::= ws ("[]" | "[" {_repeat("alt", 1, math.comb(len(count.boxes), count.k))} "]")\n'
             f'alt ::= "[" counted {more_counted}{pins}"]"\n'
             f'counted ::= q {relation} "(" box "," ws destination ")" q\n'
             'pin ::= q "on(" box ", table)" q\n'
@@ -74,7 +75,7 @@ def goal_grammar(
             f"destination ::= {_alternation(count.destinations)}\n" + _COMMON
         )
     return (
-        f'root ::= ws "[" {_repeat("alt", 1, max_alternatives)} "]"\n'
+        f'root ::= ws ("[]" | "[" {_repeat("alt", 1, max_alternatives)} "]")\n'
         f'alt ::= "[" {_repeat("prop", 1, max_propositions)} "]"\n'
         'prop ::= q (binary | inhand) q\n'
         f'binary ::= {relation} "(" obj "," ws obj ")"\n'

@@ -47,6 +47,21 @@ class SkillCandidates:
 # --------------------------------------------------------------------------------------------------
 
 
+def parse_goal_or_none(text: str, objects: Sequence[str]) -> Goal | None:
+    """:func:`parse_goal_answer`, except that an empty list, the answer for an instruction no goal
+    expresses (docs/guide/language-models.md#no-valid-goal), gives ``None``.
+
+    Raises:
+        GoalError: naming the unparseable part or the invalid proposition.
+    """
+    try:
+        if parse_string_lists(extract_first_list(text)) == []:
+            return None
+    except LiteralSyntaxError:
+        pass  # parse_goal_answer names the problem
+    return parse_goal_answer(text, objects)
+
+
 def parse_goal_answer(text: str, objects: Sequence[str]) -> Goal:
     """The goal in a model answer, validated against 𝒫 of ``objects``.
 

@@ -12,9 +12,12 @@ Layout::
     <current block>                     objects, relationships, instruction [, predicted goal, history]
     <query line>
 
-All 10 in-context examples (:mod:`t2m_core.language.examples`) are used, in an order shuffled once per
-run with the run seed (:func:`examples_for_seed`), then (by default) sorted so that the examples most
-relevant to the instruction stand last, next to the query (:func:`examples_by_relevance`).
+Planning prompts use all 10 in-context examples (``examples/tableenv.yaml``), in an order shuffled
+once per run with the run seed (:func:`examples_for_seed`), then (by default) sorted so that the
+examples most relevant to the instruction stand last, next to the query (:func:`examples_by_relevance`).
+Goal prompts (by default) show the 10 examples most relevant to the instruction out of those and
+the goal-only examples (``examples/goals.yaml``), the closest last
+(:mod:`t2m_core.language.example_retrieval`).
 
 Usage::
 
@@ -29,7 +32,6 @@ from __future__ import annotations
 
 import functools
 import random
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from importlib import resources
@@ -42,7 +44,7 @@ from t2m_core.domain.goals import Goal
 from t2m_core.domain.literals import format_string_list
 from t2m_core.domain.skills import SKILLS, STOP
 from t2m_core.errors import T2MError
-from t2m_core.language.instruction_cues import RELATION_WORDS
+from t2m_core.language.example_retrieval import most_relevant
 from t2m_core.language.scene_description import SceneDescription
 
 K = 5
@@ -104,8 +106,9 @@ class Example:
         objects: scene objects, ``table`` first.
         relationships: on/under/inhand relations of the start scene.
         instruction: one sentence.
-        goal: the goal alternatives, list of lists of proposition strings.
-        plan: skill calls that solve it from the start scene.
+        goal: the goal alternatives, list of lists of proposition strings; empty when no goal
+            expresses the instruction (goal-only examples).
+        plan: skill calls that solve it from the start scene (empty for goal-only examples).
     """
 
     objects: tuple[str, ...]
@@ -117,6 +120,10 @@ class Example:
 
 DEFAULT_EXAMPLES = "tableenv.yaml"
 """The shipped example set under ``t2m_core/language/examples/``."""
+GOAL_EXAMPLES = "goals.yaml"
+"""The shipped goal-only examples (no plan; goal prompts only)."""
+GOAL_EXAMPLES_SHOWN = 10
+"""Examples a goal prompt shows, chosen by relevance from the planning and goal-only examples."""
 
 
 def load_examples(path: str | Path | None = None) -> tuple[Example, ...]:
@@ -131,13 +138,20 @@ def load_examples(path: str | Path | None = None) -> tuple[Example, ...]:
     return _parse_examples(Path(path).read_text(encoding="utf-8"), str(path))
 
 
+def load_goal_examples(path: str | Path | None = None) -> tuple[Example, ...]:
+    """Goal-only examples (``plan`` optional, ``goal`` may be ``[]``); the shipped set by default."""
+    if path is None:
+        return _shipped_examples(GOAL_EXAMPLES)
+    return _parse_examples(Path(path).read_text(encoding="utf-8"), str(path), goal_only=True)
+
+
 @functools.cache
-def _shipped_examples() -> tuple[Example, ...]:
-    text = resources.files("t2m_core.language").joinpath("examples", DEFAULT_EXAMPLES).read_text(encoding="utf-8")
-    return _parse_examples(text, DEFAULT_EXAMPLES)
+def _shipped_examples(name: str = DEFAULT_EXAMPLES) -> tuple[Example, ...]:
+    text = resources.files("t2m_core.language").joinpath("examples", name).read_text(encoding="utf-8")
+    return _parse_examples(text, name, goal_only=name == GOAL_EXAMPLES)
 
 
-def _parse_examples(text: str, source: str) -> tuple[Example, ...]:
+def _parse_examples(text: str, source: str, goal_only: bool = False) -> tuple[Example, ...]:
     data = yaml.safe_load(text)
     entries = data.get("examples") if isinstance(data, dict) else None
     if not isinstance(entries, list) or not entries:
@@ -151,7 +165,7 @@ def _parse_examples(text: str, source: str) -> tuple[Example, ...]:
                     relationships=tuple(_strings(entry["relationships"])),
                     instruction=str(entry["instruction"]).strip(),
                     goal=tuple(tuple(_strings(alternative)) for alternative in entry["goal"]),
-                    plan=tuple(_strings(entry["plan"])),
+                    plan=tuple(_strings(entry["plan"] if not goal_only else entry.get("plan", []))),
                 )
             )
         except (KeyError, TypeError) as error:
@@ -175,36 +189,10 @@ def examples_for_seed(seed: int, examples: Sequence[Example] | None = None) -> t
     return tuple(ordered)
 
 
-# Small models copy the goal relation of the example closest to the query, so that example should
-# ask for the same relation (RELATION_WORDS) and share the instruction's content words.
-_STOPWORDS = frozenset(
-    "a an the of and or for me my i you your it them is be would could can how please do what "
-    "box boxes rack put get move make set".split()
-)
-RELATION_WEIGHT = 3.0
-"""How much a shared goal relation counts against one shared content word."""
-
-
-def _instruction_features(text: str) -> tuple[set[str], set[str]]:
-    """(goal relations named, content words) of an instruction."""
-    words = re.findall(r"[a-z]+", text.lower())
-    relations = {RELATION_WORDS[word] for word in words if word in RELATION_WORDS}
-    content = {word.rstrip("s") for word in words if word not in _STOPWORDS and word not in RELATION_WORDS}
-    return relations, content
-
-
-def relevance(instruction: str, example: Example) -> float:
-    """How close ``example`` is to ``instruction``: shared goal relations (weighted) + shared content words."""
-    relations, content = _instruction_features(instruction)
-    example_relations, example_content = _instruction_features(example.instruction)
-    return RELATION_WEIGHT * len(relations & example_relations) + len(content & example_content)
-
-
 def examples_by_relevance(instruction: str, seed: int, examples: Sequence[Example] | None = None) -> tuple[Example, ...]:
     """All examples, the most relevant to ``instruction`` last (next to the query); ties keep the
     seed's shuffled order. Deterministic for a given instruction and seed."""
-    shuffled = examples_for_seed(seed, examples)
-    return tuple(sorted(shuffled, key=lambda example: relevance(instruction, example)))
+    return tuple(most_relevant(instruction, examples_for_seed(seed, examples)))
 
 
 # --------------------------------------------------------------------------------------------------
@@ -270,6 +258,8 @@ class PromptBuilder:
     Args:
         seed: the run seed; fixes the example order.
         examples: the example set (default: the shipped one).
+        goal_examples: the goal-only examples goal prompts also choose from (default: the
+            shipped ones).
         k: candidates per query (K = 5).
         myopic: prompts of the saycan-gs / innermono-gs baselines (``stop()`` is a primitive and every
             example plan ends with it).
@@ -277,6 +267,8 @@ class PromptBuilder:
             instruction moved next to the query (:func:`examples_by_relevance`); ``"shuffled"``: the
             seed's shuffle only, as in the reference. The order is a free choice; relevance
             order keeps a small model from copying the goal relation of an unrelated last example.
+            With ``"relevance"`` goal prompts show the :data:`GOAL_EXAMPLES_SHOWN` most relevant
+            of the examples and goal-only examples; with ``"shuffled"`` all examples, as in the reference.
     """
 
     def __init__(
@@ -286,11 +278,13 @@ class PromptBuilder:
         k: int = K,
         myopic: bool = False,
         order: str = "relevance",
+        goal_examples: Sequence[Example] | None = None,
     ) -> None:
         if order not in ("relevance", "shuffled"):
             raise ValueError(f"example order must be 'relevance' or 'shuffled', got {order!r}")
         self.seed = seed
         self.example_set = tuple(load_examples() if examples is None else examples)
+        self.goal_example_set = tuple(load_goal_examples() if goal_examples is None else goal_examples)
         self.k = k
         self.myopic = myopic
         self.order = order
@@ -301,10 +295,17 @@ class PromptBuilder:
             return examples_for_seed(self.seed, self.example_set)
         return examples_by_relevance(instruction, self.seed, self.example_set)
 
+    def goal_examples_for(self, instruction: str) -> tuple[Example, ...]:
+        """The examples the goal prompt for ``instruction`` shows, in order."""
+        if self.order == "shuffled":
+            return examples_for_seed(self.seed, self.example_set)
+        pool = examples_for_seed(self.seed, self.example_set + self.goal_example_set)
+        return tuple(most_relevant(instruction, pool, GOAL_EXAMPLES_SHOWN))
+
     def goal(self, scene: SceneDescription) -> str:
         """Goal-prediction prompt, ending with the goal query line."""
         header = _header(planning=False, myopic=False)
-        blocks = [_example_block(example, planning=False, myopic=False) for example in self.examples_for(scene.instruction)]
+        blocks = [_example_block(example, planning=False, myopic=False) for example in self.goal_examples_for(scene.instruction)]
         return _assemble(header, blocks, [*scene.lines(), GOAL_QUERY])
 
     def _planning_context(self, scene: SceneDescription, goal: Goal | str, history: Sequence[HistoryStep]) -> list[str]:

@@ -19,7 +19,17 @@ from t2m_core.domain.literals import format_string_list
 from t2m_core.domain.skills import SkillCall, SkillError
 from t2m_core.language import grammar as grammars
 from t2m_core.language import instruction_cues as cues
-from t2m_core.language.parsing import SkillCandidates, parse_goal_answer, parse_skill_candidates, parse_skill_sequences
+from t2m_core.language.goal_checks import (
+    NONE_EXPRESSES,
+    NoGoal,
+    absent_object_reason,
+    merge_mixed_alternatives,
+    prefer_named_objects,
+    reachable_alternatives,
+    unreachable_reason,
+    unrelated_reason,
+)
+from t2m_core.language.parsing import SkillCandidates, parse_goal_or_none, parse_skill_candidates, parse_skill_sequences
 from t2m_core.language.prompts import GOAL_REQUEST, NEXT_SKILL_REQUEST, SHOOTING_REQUEST, K
 from t2m_core.protocols import LanguageModel
 
@@ -27,6 +37,9 @@ T = TypeVar("T")
 
 GOAL_RETRIES = 2
 """Re-queries after an invalid goal, then the episode is a planning failure."""
+ALREADY_HOLDS = "already holds in the scene; the instruction asks for a change"
+"""The note for a goal with an alternative that is true before the robot moves: asked again, and
+kept if the model insists (an instruction may ask for what already holds)."""
 LIST_RETRIES = 1
 """Re-queries after an unparseable skill list."""
 
@@ -56,10 +69,21 @@ def _grammar_for(model: LanguageModel, constrained: bool, build: Callable[[], st
 
 @dataclass
 class GoalQuery:
-    """The outcome of :func:`query_goal`: the goal (``None`` after all retries failed) and every attempt."""
+    """The outcome of :func:`query_goal`.
+
+    Attributes:
+        goal: the goal; ``None`` when the instruction has no valid goal (``no_goal`` says why) or
+            every attempt was invalid (a planning failure).
+        attempts: every answer, in order (none when the instruction was refused before asking).
+        no_goal: why the instruction has no valid goal in this scene.
+        unpreferred: the goal before alternatives about objects the instruction does not name
+            were dropped (``goal`` when nothing was dropped; for comparisons).
+    """
 
     goal: Goal | None
     attempts: list[Attempt]
+    no_goal: NoGoal | None = None
+    unpreferred: Goal | None = None
 
 
 def _ask_until_valid(
@@ -95,26 +119,57 @@ def query_goal(
     retries: int = GOAL_RETRIES,
     constrained: bool = True,
     instruction: str | None = None,
+    relationships: Sequence[str] | None = None,
+    cues_on: bool = True,
 ) -> GoalQuery:
     """Ask for the goal; re-query with a note up to ``retries`` times while the answer is invalid.
 
-    With ``instruction``, its cues (:mod:`t2m_core.language.instruction_cues`) shape the answer: the
-    grammar allows only the goal relations its words name and, for a counted box phrase ("three of
-    the boxes"), alternatives of exactly that many boxes; a uniform counted answer is completed to
-    every subset of that size. Without it, the goal is the model's answer as written.
+    With ``instruction``, an instruction that names a TableEnv object missing from the scene, or
+    nothing of the TableEnv world, is refused before the model is asked, and (``cues_on``) its cues
+    (:mod:`t2m_core.language.instruction_cues`) shape the answer: the grammar allows only the goal
+    relations its words name and, for a counted box phrase ("three of the boxes"), alternatives of
+    exactly that many boxes; a uniform counted answer is completed to every subset of that size.
+    An answer ``[]`` means no goal expresses the instruction. With ``relationships`` (the scene's),
+    an answer with an alternative that already holds is asked again with a note (and kept if the
+    model repeats it), alternatives of different shapes are merged into one conjunction when it can
+    be reached, alternatives no plan of d_max skills reaches are dropped, and a goal left with none is no valid
+    goal; alternatives about objects the instruction does not name give way to those about objects
+    it names (:mod:`t2m_core.language.goal_checks`).
     """
-    relations = cues.named_relations(instruction) if instruction else cues.GOAL_RELATIONS
-    count = cues.count_cue(instruction, objects) if instruction else None
+    if instruction and (refused := absent_object_reason(instruction, objects) or unrelated_reason(instruction)) is not None:
+        return GoalQuery(None, [], refused)
+    use_cues = bool(instruction) and cues_on
+    relations = cues.named_relations(instruction) if use_cues else cues.GOAL_RELATIONS
+    count = cues.count_cue(instruction, objects) if use_cues else None
     grammar = _grammar_for(model, constrained, lambda: grammars.goal_grammar(objects, relations=relations, count=count))
+
+    start = set(relationships or ())
 
     def read(answer: str) -> tuple[Goal | None, str | None]:
         try:
-            return parse_goal_answer(answer, objects), None
+            goal = parse_goal_or_none(answer, objects)
         except GoalError as error:
             return None, error.message
+        held = next((alternative for alternative in goal or () if {str(p) for p in alternative} <= start), None)
+        if held is not None:
+            return goal, f"{format_string_list([str(p) for p in held])} {ALREADY_HOLDS}"
+        return goal, None
 
     goal, attempts = _ask_until_valid(model, prompt, grammar, GOAL_REQUEST, read, retries)
-    return GoalQuery(None if goal is None else cues.complete_counted_goal(goal, count), attempts)
+    problem = attempts[-1].problem
+    if problem is not None and not problem.endswith(ALREADY_HOLDS):
+        return GoalQuery(None, attempts)
+    if goal is None:
+        return GoalQuery(None, attempts, NONE_EXPRESSES)
+    goal = cues.complete_counted_goal(goal, count)
+    if relationships is not None:
+        goal = merge_mixed_alternatives(goal, objects, relationships)
+        reachable = reachable_alternatives(goal, objects, relationships)
+        if reachable is None:
+            return GoalQuery(None, attempts, unreachable_reason(goal))
+        goal = reachable
+    preferred = prefer_named_objects(goal, instruction, objects) if instruction else goal
+    return GoalQuery(preferred, attempts, unpreferred=goal)
 
 
 def query_next_skills(

@@ -116,6 +116,8 @@ class LanguageSession:
             groundings of the described relationships (:func:`valid_groundings`; a documented
             deviation: the reference leaves semantic validity to the Q-functions). ``False`` keeps the
             scene grammar, where any skill over any scene object is allowed.
+        cues: let the instruction's relation and count cues shape the goal answer
+            (:mod:`t2m_core.language.instruction_cues`).
     """
 
     def __init__(
@@ -128,6 +130,7 @@ class LanguageSession:
         constrained: bool = True,
         beta: float = BETA,
         grounded: bool = True,
+        cues: bool = True,
     ) -> None:
         self.model = model
         self.scene = scene
@@ -136,11 +139,19 @@ class LanguageSession:
         self.constrained = constrained
         self.beta = beta
         self.grounded = grounded
+        self.cues = cues
 
     def predict_goal(self) -> GoalQuery:
-        """The goal query (bounded re-query; ``goal`` is ``None`` when every attempt was invalid)."""
+        """The goal query (bounded re-query; ``goal`` is ``None`` when the instruction has no valid
+        goal, ``no_goal`` saying why, or when every attempt was invalid)."""
         return query_goal(
-            self.model, self.prompts.goal(self.scene), self.scene.objects, constrained=self.constrained, instruction=self.scene.instruction
+            self.model,
+            self.prompts.goal(self.scene),
+            self.scene.objects,
+            constrained=self.constrained,
+            instruction=self.scene.instruction,
+            relationships=self.scene.relationships,
+            cues_on=self.cues,
         )
 
     def history(self, executed: Sequence[SkillCall]) -> list[HistoryStep]:

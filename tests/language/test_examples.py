@@ -9,10 +9,13 @@ from t2m_core.domain.goals import Goal, validate_goal
 from t2m_core.domain.propositions import Proposition
 from t2m_core.domain.skills import parse_skill_call
 from t2m_core.domain.symbolic_effects import apply_effects, precondition_problems
-from t2m_core.language.prompts import load_examples
+from t2m_core.language.goal_cases import load_goal_cases
+from t2m_core.language.goal_checks import reachable_alternatives
+from t2m_core.language.prompts import load_examples, load_goal_examples
 from t2m_core.tasks import list_tasks
 
 EXAMPLES = load_examples()
+GOAL_EXAMPLES = load_goal_examples()
 
 
 def test_there_are_ten_with_the_documented_balance():
@@ -44,9 +47,30 @@ def test_plan_replays_symbolically_and_reaches_the_goal(example):
     assert goal.satisfied_by(facts), f"the plan ends in {sorted(map(str, facts))}, not in {goal}"
 
 
-def test_examples_never_reuse_a_task_instruction_or_scene():
-    for task in list_tasks():
-        task_relations = {str(p) for p in task.initial_state if p.predicate in ("on", "under", "inhand")}
-        for example in EXAMPLES:
-            assert example.instruction.strip().lower() != task.instruction.strip().lower()
-            assert not (set(example.objects) == set(task.objects) and set(example.relationships) == task_relations)
+@pytest.mark.parametrize("example", GOAL_EXAMPLES, ids=lambda e: e.instruction[:40])
+def test_goal_examples_are_reachable_or_say_no_goal(example):
+    mentioned = {arg for text in example.relationships for arg in Proposition.parse(text).args}
+    assert set(example.objects) <= mentioned and example.plan == ()
+    if example.goal:
+        goal = Goal.from_lists(example.goal)
+        validate_goal(goal, example.objects)
+        assert reachable_alternatives(goal, example.objects, example.relationships) == goal
+
+
+def test_goal_examples_cover_every_goal_shape():
+    goals = [e.goal for e in GOAL_EXAMPLES]
+    assert any(not goal for goal in goals), "an example answers [] (no goal)"
+    assert any(len(goal) > 1 for goal in goals), "an example enumerates a counted goal"
+    assert any(any(p.startswith("inhand(") for alt in goal for p in alt) for goal in goals)
+    assert any(any(p.endswith(", table)") for alt in goal for p in alt) for goal in goals)
+
+
+def test_examples_never_reuse_a_task_or_evaluation_instruction_or_scene():
+    asked = [(task.instruction, task.objects, {str(p) for p in task.initial_state if p.predicate in ("on", "under", "inhand")})
+             for task in list_tasks()]
+    asked += [(case.instruction, case.scene.objects, {str(p) for p in case.scene.initial_state if p.predicate in ("on", "under", "inhand")})
+              for case in load_goal_cases()]
+    for instruction, objects, relations in asked:
+        for example in EXAMPLES + GOAL_EXAMPLES:
+            assert example.instruction.strip().lower() != instruction.strip().lower()
+            assert not (set(example.objects) == set(objects) and set(example.relationships) == relations)

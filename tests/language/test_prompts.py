@@ -93,14 +93,31 @@ def test_example_order_is_deterministic_per_seed():
 
 
 def test_relevance_order_puts_the_closest_example_next_to_the_query():
-    from t2m_core.language.prompts import examples_by_relevance, relevance
+    from t2m_core.language.example_retrieval import relevance, word_weights
+    from t2m_core.language.prompts import examples_by_relevance
 
-    ordered = examples_by_relevance("Push the cyan box beneath the rack.", seed=0)
+    instruction = "Push the cyan box beneath the rack."
+    ordered = examples_by_relevance(instruction, seed=0)
     assert sorted(ordered, key=str) == sorted(load_examples(), key=str)
-    scores = [relevance("Push the cyan box beneath the rack.", example) for example in ordered]
+    weights = word_weights(ordered)
+    scores = [relevance(instruction, example, weights) for example in ordered]
     assert scores == sorted(scores) and scores[-1] > scores[0]
     assert any(proposition.startswith("under(") for proposition in ordered[-1].goal[0])
     # the builder shows that order; the reference's plain shuffle stays available
     builder = PromptBuilder(seed=0)
-    assert builder.examples_for("Push the cyan box beneath the rack.") == ordered
+    assert builder.examples_for(instruction) == ordered
+
+
+def test_goal_prompts_show_the_ten_closest_of_all_examples():
+    builder = PromptBuilder(seed=0)
+    shown = builder.goal_examples_for("Pick up the hook and keep holding it.")
+    assert len(shown) == 10 and len(set(shown)) == 10
+    assert shown[-1].goal[0][0].startswith("inhand(")  # a goal-only example about holding something
+    prompt = builder.goal(SceneDescription(("table", "rack", "hook"), ("on(rack, table)", "on(hook, table)"), "Grab the hook."))
+    assert prompt.count("Human instruction:") == 11 and "Top robot action sequence" not in prompt
+    # colours name objects, not shapes: every colour reads as one word
+    from t2m_core.language.example_retrieval import content_words
+
+    assert content_words("Hold the red boxes") == content_words("holding the cyan box") == {"hold", "<colour>", "box"}
+    assert PromptBuilder(seed=0, order="shuffled").goal_examples_for("x") == examples_for_seed(0)
     assert PromptBuilder(seed=0, order="shuffled").examples_for("anything") == examples_for_seed(0)
