@@ -2,9 +2,9 @@
 
 - ``t2m llm goal --task ID --seed N [--instruction TEXT] [--llm NAME] [--json]``: the predicted
   goal alternatives, or "no valid goal" and why; with the task's own instruction, whether the goal
-  means the task's ground truth (judged on the states reachable from the scene:
-  docs/guide/language-models.md#judging-goals); exits 1 when no valid goal came back or, for the
-  task's instruction, the goal differs from the task's;
+  means the task's ground truth (strict and plan-level, judged on the states reachable from the
+  scene: docs/guide/language-models.md#judging-goals); exits 1 when no valid goal came back or, for
+  the task's instruction, a shortest plan to the goal can miss the task's goal (plan-level);
 - ``t2m llm next --task ID --seed N --executed "pick(a),place(a, rack)"``: the K candidate next
   skills with their log-likelihoods and usefulness scores.
 
@@ -91,8 +91,8 @@ def goal_command(
 ) -> None:
     """Predict the goal of the task's instruction (or --instruction) as DNF alternatives.
 
-    Exits 1 when the model gives no valid goal or, for the task's own instruction, a goal that does
-    not mean the task's goal alternatives."""
+    Exits 1 when the model gives no valid goal or, for the task's own instruction, a goal whose
+    shortest plans can miss the task's goal alternatives (plan-level judgement)."""
     from rich.console import Console
 
     from t2m_core.language.goal_judging import judge_goal, reachable_states
@@ -115,7 +115,7 @@ def goal_command(
         "plan_level_match": None if judgement is None else judgement.plan_level,
         "attempts": [{"answer": attempt.answer, "problem": attempt.problem} for attempt in query.attempts],
     }
-    failed = query.goal is None or (own and not report["matches_task_goal"])
+    failed = query.goal is None or (own and not report["plan_level_match"])
     if as_json:
         typer.echo(json.dumps(report, indent=2))
         if failed:
@@ -135,7 +135,8 @@ def goal_command(
     for index, alternative in enumerate(query.goal.to_lists(), start=1):
         console.print(f"  alternative {index}: {', '.join(alternative)}", highlight=False)
     if own:
-        console.print(f"matches the task's goal alternatives: {report['matches_task_goal']}")
+        console.print(f"matches the task's goal alternatives: {report['matches_task_goal']} "
+                      f"(every shortest plan reaches them: {report['plan_level_match']})")
     if failed:
         raise typer.Exit(1)
 

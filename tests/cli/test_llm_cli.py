@@ -110,3 +110,13 @@ def test_goal_exits_nonzero_on_a_valid_but_wrong_goal(t2m_registry, t2m_plugin, 
         assert report["valid"] and not report["matches_task_goal"]
     else:
         assert "matches the task's goal alternatives: False" in result.output
+
+
+def test_goal_of_another_instruction_and_a_clear_no_valid_goal(scripted):
+    result = runner.invoke(app, ["llm", "goal", "--task", "task3", "--llm", "scripted", "--json",
+                                 "--instruction", "Put the red box and the blue box on the rack."])
+    report = json.loads(result.stdout)
+    assert result.exit_code == 0 and report["matches_task_goal"] is None  # not the task's own instruction
+    assert report["instruction"] == "Put the red box and the blue box on the rack."
+    refused = runner.invoke(app, ["llm", "goal", "--task", "task3", "--llm", "scripted", "--instruction", "Sing me a song."])
+    assert refused.exit_code == 1 and "no valid goal" in refused.output and "none of the world's objects" in refused.output
