@@ -51,7 +51,7 @@ def test_balancing_keeps_every_success_when_they_are_common() -> None:
 def test_a_simulator_that_never_succeeds_stops_with_a_clear_error() -> None:
     simulator = ScriptedSimulator(lambda action: False)
     with pytest.raises(DataGenerationError, match="draws for"):
-        generate_chunk(ChunkSpec("pick", "train", 0, 5, sampler="uniform"), simulator)
+        generate_chunk(ChunkSpec("pick", "train", 0, 1, sampler="uniform"), simulator)
 
 
 def _independently_invalid(skill: str, facts: set[str], arguments: tuple[str, ...]) -> bool:
