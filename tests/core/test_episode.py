@@ -72,7 +72,8 @@ def test_an_instruction_with_no_valid_goal_is_a_planning_failure_with_a_complete
     record = json.loads((tmp_path / "result.json").read_text())
     assert record["failure_type"] == "planning_failure" and record["failure"].startswith("no valid goal prediction")
     assert record["instruction"] == "make me a sandwich" and record["goal_source"] == "predicted"
-    assert record["executed"] == [] and (tmp_path / "transcript.jsonl").exists()
+    assert record["executed"] == [] and record["plan"] == []
+    assert (tmp_path / "config.yaml").exists() and (tmp_path / "plan_tree.jsonl").exists()
 
 
 def test_an_unwritable_run_directory_is_one_line_of_error(t2m_registry, t2m_plugin, tmp_path) -> None:
