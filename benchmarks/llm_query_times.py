@@ -37,9 +37,9 @@ def _model_path(options: dict[str, Any]) -> str:
         return str(options["model_path"])
     from t2m_llm_local import model_files
 
-    if hasattr(model_files, "embedded_model_path"):
-        return str(model_files.embedded_model_path(options.get("model", "qwen2.5-coder-0.5b")))
-    return str(model_files.default_model_path())  # the tree before the model catalogue
+    if "model" in options:
+        return str(model_files.embedded_model_path(options["model"]))
+    return str(model_files.default_model_path())
 
 
 def episode(llm: str, options: dict[str, Any], task_id: str, seed: int) -> dict[str, Any]:

@@ -15,10 +15,10 @@ class LocalModelOptions(BaseModel):
     """Options of the embedded llama.cpp model.
 
     Attributes:
-        model: the embedded model to run (:data:`~t2m_llm_local.catalogue.EMBEDDED_MODELS`:
-            ``qwen2.5-coder-0.5b``, the default, or ``qwen2.5-coder-1.5b``, installed by the
-            ``text2motion[qwen-1-5b]`` extra), assembled once into the t2m cache from its PyPI
-            chunk packages and verified against its pinned sha256.
+        model: the embedded model to run (:data:`~t2m_llm_local.catalogue.EMBEDDED_MODELS`):
+            ``qwen2.5-coder-1.5b``, the default, or the faster ``qwen2.5-coder-0.5b``; both are
+            installed with t2m, assembled once into the t2m cache from their PyPI chunk packages
+            and verified against their pinned sha256.
         model_path: a GGUF file to run instead of the embedded ``model``.
         prompt_cache: keep the key-value states of prompt prefixes (header and in-context
             examples) on disk under ``$T2M_CACHE_DIR/prompt-states``, so a new process does not
@@ -60,7 +60,7 @@ def t2m_register_language_models() -> list[LanguageModelSpec]:
             aliases=("embedded", "llama-cpp", *EMBEDDED_MODELS),
             factory="t2m_llm_local.llama:LocalLanguageModel",
             options=LocalModelOptions,
-            summary="Embedded Qwen2.5-Coder-0.5B or -1.5B (or any GGUF file) in-process via llama.cpp; exact scoring",
+            summary="Embedded Qwen2.5-Coder-1.5B or -0.5B (or any GGUF file) in-process via llama.cpp; exact scoring",
             alias_options={name: {"model": name} for name in EMBEDDED_MODELS},
         )
     ]

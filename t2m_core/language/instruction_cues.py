@@ -10,6 +10,10 @@ enumerating the alternatives, so a counted answer is completed to every k-subset
 ranges over. The model still chooses the relation, the destination and (for a described class such
 as "primary colored") which boxes belong to it.
 
+Written against the task suite's instructions, the cues still help on phrasings they were not
+written for (the goal evaluation set: docs/guide/language-models.md#the-embedded-model-local), for
+both embedded models, so they stay on by default.
+
 Usage::
 
     cue = count_cue("How would you move three of the boxes to the rack?", objects)

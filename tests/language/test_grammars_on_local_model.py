@@ -23,7 +23,7 @@ def local_model():
     from t2m_llm_local.hooks import LocalModelOptions
     from t2m_llm_local.llama import LocalLanguageModel
 
-    return LocalLanguageModel(LocalModelOptions(n_ctx=4096))
+    return LocalLanguageModel(LocalModelOptions(model="qwen2.5-coder-0.5b", n_ctx=4096))  # mechanics, not quality: the fast model
 
 
 @pytest.mark.llm

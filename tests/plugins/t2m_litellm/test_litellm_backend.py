@@ -69,11 +69,11 @@ def test_unreachable_server_is_retried_then_reported_without_the_key(monkeypatch
 def server():
     """A llama.cpp OpenAI-compatible server with the embedded model; yields its /v1 URL."""
     pytest.importorskip("uvicorn", reason="llama_cpp.server needs the [server] extras (uvicorn, fastapi, sse-starlette, starlette-context)")
-    from t2m_llm_local.model_files import default_model_path
+    from t2m_llm_local.model_files import embedded_model_path
 
     port = free_port()
     command = [
-        sys.executable, "-m", "llama_cpp.server", "--model", str(default_model_path()), "--host", "127.0.0.1",
+        sys.executable, "-m", "llama_cpp.server", "--model", str(embedded_model_path("qwen2.5-coder-0.5b")), "--host", "127.0.0.1",
         "--port", str(port), "--n_ctx", "1024", "--logits_all", "true", "--n_threads", "1", "--verbose", "false",
     ]
     process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env={**os.environ})

@@ -121,7 +121,7 @@ def test_conformance_and_single_load_per_process(local_model):
     check_language_model(local_model)
     from t2m_llm_local.llama import LocalLanguageModel
 
-    again = LocalLanguageModel(LocalModelOptions(n_ctx=4096))
+    again = LocalLanguageModel(LocalModelOptions(model="qwen2.5-coder-0.5b", n_ctx=4096))
     assert again._llama is local_model._llama and again._lock is local_model._lock
     assert again.load_time_s < 0.5
 
@@ -148,7 +148,7 @@ def test_hooks_register_local_and_stay_light():
     (spec,) = t2m_register_language_models()
     assert spec.name == "local" and spec.options is LocalModelOptions
     assert LocalModelOptions().model_path is None and LocalModelOptions().n_ctx == 8192
-    assert LocalModelOptions().model == "qwen2.5-coder-0.5b" and LocalModelOptions().prompt_cache
+    assert LocalModelOptions().model == "qwen2.5-coder-1.5b" and LocalModelOptions().prompt_cache
     assert spec.alias_options["qwen2.5-coder-1.5b"] == {"model": "qwen2.5-coder-1.5b"}
     with pytest.raises(ValueError, match="unknown embedded model 'qwen-7b'; choose one of"):
         LocalModelOptions(model="qwen-7b")

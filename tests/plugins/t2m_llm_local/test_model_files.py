@@ -11,7 +11,7 @@ import pytest
 
 from t2m_core.errors import ModelFileError
 from t2m_llm_local import model_files
-from t2m_llm_local.catalogue import DEFAULT_MODEL, EMBEDDED_MODELS, QWEN_05B, QWEN_15B
+from t2m_llm_local.catalogue import DEFAULT_MODEL, EMBEDDED_MODELS, QWEN_15B
 
 
 @pytest.fixture
@@ -24,7 +24,7 @@ def small_chunks(tmp_path, monkeypatch):
         path.write_bytes(data)
         paths.append(path)
     whole = b"".join(parts)
-    small = dataclasses.replace(QWEN_05B, size=len(whole), sha256=hashlib.sha256(whole).hexdigest())
+    small = dataclasses.replace(EMBEDDED_MODELS[DEFAULT_MODEL], size=len(whole), sha256=hashlib.sha256(whole).hexdigest())
     monkeypatch.setitem(EMBEDDED_MODELS, DEFAULT_MODEL, small)
     monkeypatch.setattr(model_files, "chunk_files", lambda model: paths)
     monkeypatch.setenv("T2M_CACHE_DIR", str(tmp_path / "cache"))
@@ -59,13 +59,18 @@ def test_chunks_that_do_not_match_are_refused_and_leave_nothing(small_chunks, mo
     assert list(model_files.models_dir().iterdir()) == []
 
 
-def test_a_missing_optional_model_names_its_extra(monkeypatch, tmp_path):
+def test_a_missing_chunk_package_names_the_install_command(monkeypatch, tmp_path):
     monkeypatch.setenv("T2M_CACHE_DIR", str(tmp_path))
     absent = dataclasses.replace(QWEN_15B, chunk_distributions=("t2m-no-such-chunk-package",))
     monkeypatch.setitem(EMBEDDED_MODELS, QWEN_15B.name, absent)
     with pytest.raises(ModelFileError, match="is not installed") as raised:
         model_files.embedded_model_path(QWEN_15B.name)
-    assert "pip install 'text2motion[qwen-1-5b]'" in raised.value.hint
+    assert "pip install t2m-no-such-chunk-package==0.2.0" in raised.value.hint
+    optional = dataclasses.replace(absent, extra="some-extra")  # a model shipped as an extra names it
+    monkeypatch.setitem(EMBEDDED_MODELS, QWEN_15B.name, optional)
+    with pytest.raises(ModelFileError) as raised:
+        model_files.embedded_model_path(QWEN_15B.name)
+    assert "pip install 'text2motion[some-extra]'" in raised.value.hint
     with pytest.raises(ModelFileError, match="no embedded model named"):
         model_files.embedded_model_path("gpt-2")
 
