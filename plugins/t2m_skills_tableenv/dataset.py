@@ -54,6 +54,18 @@ class SkillTensors:
         """Load ``DIR/<skill>/<split>``."""
         return cls.from_transitions(load_split(directory))
 
+    def head(self, count: int | None) -> SkillTensors:
+        """The first ``count`` samples (all when ``None``).
+
+        Raises:
+            ValueError: ``count`` exceeds the samples there are.
+        """
+        if count is None:
+            return self
+        if count > len(self):
+            raise ValueError(f"asked for the first {count} training transitions, the split has {len(self)}: generate more with `t2m datagen --size {count}`")
+        return SkillTensors(self.rows[:count], self.next_rows[:count], self.shuffle_range[:count], self.actions[:count], self.rewards[:count])
+
     def successes(self) -> SkillTensors:
         """The successful transitions only (what dynamics trains on)."""
         keep = self.rewards > 0.5

@@ -42,7 +42,11 @@ class QEnsemble(nn.Module):
             self.biases.append(nn.Parameter(torch.zeros(members, 1, fan_out)))
 
     def forward(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
-        x = torch.cat((states, actions), dim=-1).unsqueeze(0).expand(self.members, -1, -1)
+        """Logits ``(N, B)``. ``states (N, 96)`` and ``actions (N, 4)`` go to every member;
+        ``(B, N, 96)`` and ``(B, N, 4)`` give each member its own inputs (bootstrapped training)."""
+        x = torch.cat((states, actions), dim=-1)
+        if x.dim() == 2:
+            x = x.unsqueeze(0).expand(self.members, -1, -1)
         last = len(self.weights) - 1
         for layer, (weight, bias) in enumerate(zip(self.weights, self.biases)):
             x = torch.baddbmm(bias, x, weight)

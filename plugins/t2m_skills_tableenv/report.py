@@ -22,6 +22,7 @@ from t2m_core.domain.geometry import axis_angle_to_quat, quat_yaw, wrap_angle
 from t2m_core.domain.observation import RowOrder, decode_dynamics_prediction
 from t2m_skills_tableenv.dataset import SkillTensors
 from t2m_skills_tableenv.library import TableEnvSkill, load_library
+from t2m_skills_tableenv.networks import Dynamics
 from t2m_skills_tableenv.options import TableEnvSkillsOptions
 from t2m_skills_tableenv.training import q_metrics
 
@@ -40,11 +41,11 @@ def reliability(predicted: np.ndarray, success: np.ndarray) -> list[dict[str, fl
 
 
 @torch.no_grad()
-def dynamics_errors(skill: TableEnvSkill, data: SkillTensors, row_orders: np.ndarray, shuffle_ranges: np.ndarray, observations: np.ndarray, next_observations: np.ndarray) -> dict[str, float]:
+def dynamics_errors(dynamics: Dynamics, data: SkillTensors, row_orders: np.ndarray, shuffle_ranges: np.ndarray, observations: np.ndarray, next_observations: np.ndarray) -> dict[str, float]:
     """Median and 90th-percentile position (mm) and yaw (degrees) errors of the decoded dynamics
     prediction against the true next observation, for the moved object (the first argument) and
     for the other present objects."""
-    predicted = skill.predict(data.states(), data.actions).numpy()
+    predicted = dynamics(data.states(), data.actions).numpy()
     errors: dict[str, list[float]] = {"moved_mm": [], "moved_deg": [], "others_mm": [], "others_deg": []}
     for i in range(len(predicted)):
         order = row_orders[i].astype(np.int64)
@@ -116,7 +117,7 @@ def report_library(checkpoints: Path, data: Path | None, episodes: int, out: Pat
             entry["reliability"] = reliability(q_min, transitions.success)
             keep = transitions.success
             entry["dynamics"] = dynamics_errors(
-                skill, validation.successes(), transitions.row_order[keep], transitions.shuffle_range[keep], transitions.observation[keep], transitions.next_observation[keep]
+                skill.dynamics, validation.successes(), transitions.row_order[keep], transitions.shuffle_range[keep], transitions.observation[keep], transitions.next_observation[keep]
             )
         if simulator is not None and episodes > 0:
             entry["policy"] = policy_success(skill, simulator, episodes)

@@ -18,7 +18,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import torch
 from pydantic import BaseModel, ConfigDict, Field
@@ -43,6 +43,14 @@ class StageSettings(BaseModel):
     learning_rate: float = Field(gt=0, description="Adam learning rate (cosine-annealed to 0 for the Q-ensemble)")
     eval_every: int = Field(1000, gt=0, description="steps between validation evaluations and saved states")
     seed: int = Field(0, ge=0, description="torch seed of initialisation, batches and shuffles")
+    train_size: int | None = Field(
+        None, gt=0, description="train on the first N training transitions only (what `t2m datagen --size N` writes); None: all"
+    )
+    ensemble_batches: Literal["shared", "bootstrap"] = Field(
+        "shared",
+        description="Q-ensemble only: every member sees the same batches (the published setting), or each "
+        "member draws its batches from its own bootstrap resample of the training set",
+    )
 
 
 DEFAULT_SETTINGS: dict[str, StageSettings] = {
@@ -82,13 +90,19 @@ class Stage:
 
 
 class QStage(Stage):
-    """BCE of every member's sigmoid to the reward; all members see the same batch."""
+    """BCE of every member's sigmoid to the reward. All members see the same batch, or with
+    ``ensemble_batches="bootstrap"`` member ``b`` sees the same batch positions of its own resample
+    (with replacement, fixed by the seed) of the training set."""
 
     model = "q"
 
     def __init__(self, train: SkillTensors, validation: SkillTensors, settings: StageSettings) -> None:
         self.train, self.validation = train, validation
         self.network = QEnsemble()
+        self.resample: torch.Tensor | None = None
+        if settings.ensemble_batches == "bootstrap":
+            generator = torch.Generator().manual_seed(settings.seed + 1)
+            self.resample = torch.randint(len(train), (self.network.members, len(train)), generator=generator)
         self.optimizer = torch.optim.Adam(self.network.parameters(), lr=settings.learning_rate)
         self.schedule = torch.optim.lr_scheduler.CosineAnnealingLR(self.optimizer, T_max=settings.steps, eta_min=0.0)
 
@@ -100,9 +114,16 @@ class QStage(Stage):
         return {"network": self.network, "optimizer": self.optimizer, "schedule": _SchedulerModule(self.schedule)}
 
     def step(self, index: torch.Tensor, generator: torch.Generator) -> dict[str, float]:
-        states = self.train.states(index, generator)
-        logits = self.network(states, self.train.actions[index])
-        targets = self.train.rewards[index, None].expand_as(logits)
+        if self.resample is None:
+            states = self.train.states(index, generator)
+            logits = self.network(states, self.train.actions[index])
+            targets = self.train.rewards[index, None].expand_as(logits)
+        else:
+            members = self.resample[:, index]  # (B, batch)
+            flat = members.reshape(-1)
+            states = self.train.states(flat, generator).reshape(*members.shape, -1)
+            logits = self.network(states, self.train.actions[flat].reshape(*members.shape, -1))
+            targets = self.train.rewards[members].T
         loss = nn.functional.binary_cross_entropy_with_logits(logits, targets)
         self.optimizer.zero_grad(set_to_none=True)
         loss.backward()
@@ -375,13 +396,14 @@ def train_skill(
             continue
         stage_settings = settings[model]
         torch.manual_seed(stage_settings.seed)
+        stage_train = train.head(stage_settings.train_size)
         if model == "q":
-            stage: Stage = QStage(train, validation, stage_settings)
+            stage: Stage = QStage(stage_train, validation, stage_settings)
         elif model == "policy":
             q_ensemble = load_weights(checkpoint / WEIGHT_FILES["q"], QEnsemble())
-            stage = PolicyStage(train, validation, q_ensemble, stage_settings)
+            stage = PolicyStage(stage_train, validation, q_ensemble, stage_settings)
         else:
-            stage = DynamicsStage(train, validation, stage_settings)
+            stage = DynamicsStage(stage_train, validation, stage_settings)
         total = stage_settings.steps
         report = (lambda step, record, model=model, total=total: on_progress(model, step, total, record)) if on_progress else None
         results[model] = run_stage(stage, stage_settings, checkpoint, on_progress=report)

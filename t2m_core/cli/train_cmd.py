@@ -42,6 +42,12 @@ def train(
     library: Annotated[str, typer.Option("--library", help="Skill library plugin.")] = "tableenv",
     steps: Annotated[int | None, typer.Option("--steps", min=1, help="Optimiser steps per model (default: the library's).")] = None,
     eval_every: Annotated[int | None, typer.Option("--eval-every", min=1, help="Steps between validation evaluations.")] = None,
+    train_size: Annotated[
+        int | None, typer.Option("--train-size", min=1, help="Train on the first N training transitions only (learning curves).")
+    ] = None,
+    ensemble_batches: Annotated[
+        str | None, typer.Option("--ensemble-batches", help="Q-ensemble batches: shared (published) or bootstrap.")
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the results as JSON on stdout.")] = False,
 ) -> None:
     """Train a skill library's models on a dataset. Rerunning the same command after a kill resumes
@@ -50,7 +56,10 @@ def train(
     if model != "all" and model not in MODEL_NAMES:
         raise T2MError(f"unknown model {model!r}", f"use one of: {', '.join(MODEL_NAMES)}, all")
     trainer = library_entry(library, "trainer")
-    overrides = {key: value for key, value in (("steps", steps), ("eval_every", eval_every)) if value is not None}
+    if ensemble_batches not in (None, "shared", "bootstrap"):
+        raise T2MError(f"unknown --ensemble-batches {ensemble_batches!r}", "use shared or bootstrap")
+    chosen = (("steps", steps), ("eval_every", eval_every), ("train_size", train_size), ("ensemble_batches", ensemble_batches))
+    overrides = {key: value for key, value in chosen if value is not None}
     results = {}
     for name in _skills(skill):
         results[name] = _train_with_progress(trainer, name, models, data, out / name, overrides)
@@ -58,7 +67,7 @@ def train(
         typer.echo(json.dumps(results, indent=2))
 
 
-def _train_with_progress(trainer: Any, skill: str, models: tuple[str, ...], data: Path, checkpoint: Path, overrides: dict[str, int]) -> dict[str, Any]:
+def _train_with_progress(trainer: Any, skill: str, models: tuple[str, ...], data: Path, checkpoint: Path, overrides: dict[str, Any]) -> dict[str, Any]:
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 

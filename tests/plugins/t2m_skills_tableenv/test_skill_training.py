@@ -39,6 +39,38 @@ def test_the_q_ensemble_learns_a_separable_problem(tmp_path) -> None:
     assert [r["step"] for r in curve] == [200, 400, 600]
 
 
+def test_bootstrapped_members_each_train_on_their_own_resample(tmp_path) -> None:
+    train, validation = synthetic(2048, 0), synthetic(512, 1)
+    settings = StageSettings(steps=600, batch_size=128, learning_rate=3e-3, eval_every=600, ensemble_batches="bootstrap")
+    stage = QStage(train, validation, settings)
+    assert stage.resample is not None and stage.resample.shape == (8, 2048)
+    unique = [len(torch.unique(member)) / 2048 for member in stage.resample]
+    assert all(0.58 < share < 0.68 for share in unique)  # sampling with replacement keeps ~1 - 1/e
+    assert len({tuple(member[:20].tolist()) for member in stage.resample}) == 8
+    # the same seed draws the same resamples: a resumed run trains on the data it started with
+    assert torch.equal(QStage(train, validation, settings).resample, stage.resample)
+    result = run_stage(stage, settings, tmp_path)
+    assert result["best"]["accuracy"] > 0.85
+
+
+def test_per_member_inputs_reach_only_their_member() -> None:
+    q = QEnsemble()
+    states, actions = torch.randn(8, 5, 96), torch.randn(8, 5, 4)
+    per_member = q(states, actions)
+    assert per_member.shape == (5, 8)
+    for member in (0, 5):
+        torch.testing.assert_close(per_member[:, member], q(states[member], actions[member])[:, member])
+
+
+def test_the_first_n_training_samples_are_a_prefix_and_too_many_is_a_clear_error() -> None:
+    data = synthetic(100, 0)
+    head = data.head(40)
+    assert len(head) == 40 and torch.equal(head.rows, data.rows[:40]) and torch.equal(head.rewards, data.rewards[:40])
+    assert data.head(None) is data
+    with pytest.raises(ValueError, match="t2m datagen --size 101"):
+        data.head(101)
+
+
 def test_the_ensemble_members_are_one_batched_module_with_independent_weights() -> None:
     q = QEnsemble()
     states, actions = torch.randn(5, 96), torch.randn(5, 4)

@@ -1,0 +1,123 @@
+"""Learning curves: a skill's model quality against the size of its training set.
+
+    python benchmarks/learning_curves.py --skill pick --sizes 1250,2500,5000,10000,20000
+        --data datasets/tableenv --work /tmp/curves --json OUT [--models q,dynamics] [--steps 20000]
+        [--plot PNG]
+
+Trains the models on the first N training transitions (``t2m train --train-size N``: exactly what
+``t2m datagen --size N`` writes, since chunks are deterministic) for every N, with the same step
+budget, into ``WORK/<skill>-<N>/`` (resumable: a killed run continues where it stopped), and
+measures each on the full validation split: Q precision / recall / accuracy / loss of the
+pessimistic prediction, the dynamics' median position error of the moved object (mm). A curve that
+still rises at its largest size says more data would help. Prints a table and writes JSON.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--skill", required=True)
+    parser.add_argument("--sizes", required=True, help="comma-separated training-set sizes")
+    parser.add_argument("--data", type=Path, default=Path("datasets/tableenv"))
+    parser.add_argument("--work", type=Path, required=True, help="directory for the per-size checkpoints")
+    parser.add_argument("--models", default="q,dynamics", help="q, dynamics (policy success needs simulation: see `t2m skills report`)")
+    parser.add_argument("--steps", type=int, default=None, help="optimiser steps per model (default: the library's)")
+    parser.add_argument("--json", dest="json_out", type=Path, required=True)
+    parser.add_argument("--plot", type=Path, default=None)
+    args = parser.parse_args()
+
+    from t2m_core.atomic_files import write_json_atomic
+    from t2m_core.data.generate import load_split
+    from t2m_skills_tableenv.dataset import SkillTensors
+    from t2m_skills_tableenv.checkpoints import load_weights
+    from t2m_skills_tableenv.networks import Dynamics, QEnsemble
+    from t2m_skills_tableenv.report import dynamics_errors
+    from t2m_skills_tableenv.training import WEIGHT_FILES, q_metrics, train_skill
+
+    models = tuple(args.models.split(","))
+    unknown = set(models) - {"q", "dynamics"}
+    if unknown:
+        parser.error(f"unknown models {sorted(unknown)}: learning curves measure q and dynamics")
+    transitions = load_split(args.data / args.skill / "validation")
+    validation = SkillTensors.from_transitions(transitions)
+    keep = transitions.success
+    points = []
+    for size in (int(s) for s in args.sizes.split(",")):
+        checkpoint = args.work / f"{args.skill}-{size}"
+        overrides = {"train_size": size, **({"steps": args.steps} if args.steps else {})}
+        started = time.perf_counter()
+        results = train_skill(args.skill, models, args.data, checkpoint, overrides)
+        point: dict = {"train_size": size, "train_seconds": round(time.perf_counter() - started, 1)}
+        if "q" in models:
+            point["q"] = q_metrics(load_weights(checkpoint / WEIGHT_FILES["q"], QEnsemble()).eval(), validation)
+            point["q"]["best_step"] = results["q"]["best_step"]
+        if "dynamics" in models:
+            dynamics = load_weights(checkpoint / WEIGHT_FILES["dynamics"], Dynamics()).eval()
+            point["dynamics"] = dynamics_errors(
+                dynamics, validation.successes(), transitions.row_order[keep], transitions.shuffle_range[keep],
+                transitions.observation[keep], transitions.next_observation[keep],
+            )
+        points.append(point)
+        print(json.dumps(point), flush=True)
+    report = {"skill": args.skill, "steps": args.steps, "validation_size": len(validation), "points": points}
+    write_json_atomic(args.json_out, report)
+    _print_table(report)
+    if args.plot:
+        plot_curves(args.plot, [report])
+
+
+def _print_table(report: dict) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"{report['skill']}: quality against training-set size (validation {report['validation_size']})")
+    for column in ("train size", "Q precision", "Q recall", "Q accuracy", "Q loss", "moved mm (median)", "train s"):
+        table.add_column(column, justify="right")
+    for point in report["points"]:
+        q, dynamics = point.get("q", {}), point.get("dynamics", {})
+        table.add_row(
+            str(point["train_size"]),
+            *(f"{100 * q[k]:.1f} %" if k in q else "-" for k in ("precision", "recall", "accuracy")),
+            f"{q['loss']:.3f}" if "loss" in q else "-",
+            f"{dynamics['moved_mm_median']:.1f}" if "moved_mm_median" in dynamics else "-",
+            f"{point['train_seconds']:.0f}",
+        )
+    Console().print(table)
+
+
+def plot_curves(path: Path, reports: list[dict]) -> None:
+    """Q precision / recall and dynamics error against training-set size, one line per skill."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, (q_axis, dynamics_axis) = plt.subplots(1, 2, figsize=(10, 4))
+    for report in reports:
+        sizes = [p["train_size"] for p in report["points"]]
+        if all("q" in p for p in report["points"]):
+            q_axis.plot(sizes, [100 * p["q"]["precision"] for p in report["points"]], "o-", label=f"{report['skill']} precision")
+            q_axis.plot(sizes, [100 * p["q"]["recall"] for p in report["points"]], "s--", label=f"{report['skill']} recall")
+        if all("dynamics" in p for p in report["points"]):
+            dynamics_axis.plot(sizes, [p["dynamics"]["moved_mm_median"] for p in report["points"]], "o-", label=report["skill"])
+    q_axis.axhline(95, color="grey", linewidth=0.8, linestyle=":", label="floor 95 %")
+    dynamics_axis.axhline(10, color="grey", linewidth=0.8, linestyle=":", label="floor 10 mm")
+    for axis, label in ((q_axis, "Q-ensemble (min of 8 > 0.5), %"), (dynamics_axis, "moved object, median error (mm)")):
+        axis.set_xscale("log")
+        axis.set_xlabel("training transitions")
+        axis.set_ylabel(label)
+        axis.legend(fontsize=7)
+        axis.grid(alpha=0.3)
+    figure.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(path, dpi=120)
+
+
+if __name__ == "__main__":
+    main()
