@@ -32,15 +32,16 @@ PLOT_NAME = "ood_calibration.png"
 
 
 @torch.no_grad()
-def ensemble_statistics(q_ensemble: QEnsemble, data: SkillTensors, batch: int = 8192) -> tuple[np.ndarray, np.ndarray]:
-    """``(mean (N,), population variance (N,))`` of the member probabilities on every pair."""
-    means, variances = [], []
+def ensemble_statistics(q_ensemble: QEnsemble, data: SkillTensors, batch: int = 8192) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(mean (N,), population variance (N,), minimum (N,))`` of the member probabilities on every pair."""
+    means, variances, minima = [], [], []
     for start in range(0, len(data), batch):
         index = slice(start, start + batch)
         probabilities = q_ensemble.probabilities(data.states(index), data.actions[index])
         means.append(probabilities.mean(dim=1))
         variances.append(probabilities.var(dim=1, unbiased=False))
-    return torch.cat(means).numpy(), torch.cat(variances).numpy()
+        minima.append(probabilities.min(dim=1).values)
+    return torch.cat(means).numpy(), torch.cat(variances).numpy(), torch.cat(minima).numpy()
 
 
 def choose_threshold(mean: np.ndarray, variance: np.ndarray) -> float:
@@ -72,8 +73,8 @@ def calibrate_skill(skill: str, data: Path, checkpoint: Path) -> dict[str, Any]:
 
     q_ensemble = load_weights(Path(checkpoint) / WEIGHT_FILES["q"], QEnsemble()).eval()
     validation_dir, invalid_dir = Path(data) / skill / "validation", Path(data) / skill / "invalid"
-    valid_mean, valid_var = ensemble_statistics(q_ensemble, SkillTensors.load(validation_dir))
-    invalid_mean, invalid_var = ensemble_statistics(q_ensemble, SkillTensors.load(invalid_dir))
+    valid_mean, valid_var, _ = ensemble_statistics(q_ensemble, SkillTensors.load(validation_dir))
+    invalid_mean, invalid_var, invalid_min = ensemble_statistics(q_ensemble, SkillTensors.load(invalid_dir))
     threshold = choose_threshold(valid_mean, valid_var)
     result = {
         "threshold": threshold,
@@ -83,6 +84,9 @@ def calibrate_skill(skill: str, data: Path, checkpoint: Path) -> dict[str, Any]:
         # the invalid pairs that would pass as feasible without the detector (mean Q >= 0.5): where it matters
         "detection_rate_where_q_high": float((invalid_var[invalid_mean >= 0.5] >= threshold).mean()) if (invalid_mean >= 0.5).any() else None,
         "invalid_share_with_q_high": float((invalid_mean >= 0.5).mean()),
+        # what planning does with an invalid pair: rejected when the pessimistic Q (min of the
+        # members) is below 0.5 or the detector flags it
+        "invalid_rejected_rate": float(((invalid_min < 0.5) | (invalid_var >= threshold)).mean()),
         "false_positive_rate": float((valid_var >= threshold).mean()),
         "in_distribution_pairs": int(len(valid_var)),
         "invalid_pairs": int(len(invalid_var)),

@@ -16,6 +16,7 @@ import torch
 from t2m_core.data.generate import load_split
 from t2m_core.data.records import Transitions
 from t2m_core.domain.observation import reordered_rows
+from t2m_core.errors import T2MError
 
 
 @dataclass
@@ -58,12 +59,12 @@ class SkillTensors:
         """The first ``count`` samples (all when ``None``).
 
         Raises:
-            ValueError: ``count`` exceeds the samples there are.
+            T2MError: ``count`` exceeds the samples there are.
         """
         if count is None:
             return self
         if count > len(self):
-            raise ValueError(f"asked for the first {count} training transitions, the split has {len(self)}: generate more with `t2m datagen --size {count}`")
+            raise T2MError(f"asked for the first {count} training transitions, the split has {len(self)}", f"generate more with `t2m datagen --size {count}`")
         return SkillTensors(self.rows[:count], self.next_rows[:count], self.shuffle_range[:count], self.actions[:count], self.rewards[:count])
 
     def successes(self) -> SkillTensors:

@@ -101,7 +101,7 @@ def report_library(checkpoints: Path, data: Path | None, episodes: int, out: Pat
     library = load_library(TableEnvSkillsOptions(checkpoints=Path(checkpoints)))
     for name in DATA_SKILLS:
         skill = library[name]
-        entry: dict[str, Any] = {"ood": {k: skill.config.get("ood", {}).get(k) for k in ("threshold", "detection_rate", "false_positive_rate")}}
+        entry: dict[str, Any] = {"ood": {k: skill.config.get("ood", {}).get(k) for k in ("threshold", "detection_rate", "false_positive_rate", "invalid_rejected_rate")}}
         if data is not None and (Path(data) / name / "validation" / MANIFEST_NAME).exists():
             import json
 
@@ -133,8 +133,8 @@ def report_library(checkpoints: Path, data: Path | None, episodes: int, out: Pat
 def markdown_table(report: dict[str, Any]) -> str:
     """The report as one markdown table, a row per skill."""
     lines = [
-        "| skill | train / validation / invalid | Q precision | Q recall | Q accuracy | policy success | dynamics moved object, median mm / deg | others, median mm | OOD detection | OOD false positives |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "| skill | train / validation / invalid | Q precision | Q recall | Q accuracy | policy success | dynamics moved object, median mm / deg | others, median mm | OOD detection | OOD false positives | invalid pairs rejected |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
 
     def percent(value: Any) -> str:
@@ -149,7 +149,8 @@ def markdown_table(report: dict[str, Any]) -> str:
             f"| {percent(q.get('precision'))} | {percent(q.get('recall'))} | {percent(q.get('accuracy'))} "
             f"| {percent(policy['success_rate']) + ' of ' + str(policy['episodes']) if policy else '-'} "
             f"| {dynamics.get('moved_mm_median', float('nan')):.1f} / {dynamics.get('moved_deg_median', float('nan')):.1f} "
-            f"| {dynamics.get('others_mm_median', float('nan')):.1f} | {percent(ood.get('detection_rate'))} | {percent(ood.get('false_positive_rate'))} |"
+            f"| {dynamics.get('others_mm_median', float('nan')):.1f} | {percent(ood.get('detection_rate'))} | {percent(ood.get('false_positive_rate'))} "
+            f"| {percent(ood.get('invalid_rejected_rate'))} |"
         )
     return "\n".join(lines) + "\n"
 

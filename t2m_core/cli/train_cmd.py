@@ -105,7 +105,8 @@ def calibrate(
         results[name] = result = calibrator(name, data, out / name)
         Console(stderr=True).print(
             f"{name}: threshold {result['threshold']:.4g}, detects {result['detection_rate']:.1%} of invalid pairs at "
-            f"{result['false_positive_rate']:.2%} in-distribution false positives"
+            f"{result['false_positive_rate']:.2%} in-distribution false positives; planning rejects "
+            f"{result['invalid_rejected_rate']:.1%} of invalid pairs (min Q < 0.5 or flagged)"
         )
     if as_json:
         typer.echo(json.dumps(results, indent=2))

@@ -8,6 +8,7 @@ import json
 import pytest
 import torch
 
+from t2m_core.errors import T2MError
 from t2m_skills_tableenv.dataset import SkillTensors, shuffle_rows
 from t2m_skills_tableenv.networks import QEnsemble
 from t2m_skills_tableenv.training import DynamicsStage, PolicyStage, QStage, StageSettings, q_metrics, run_stage
@@ -67,7 +68,7 @@ def test_the_first_n_training_samples_are_a_prefix_and_too_many_is_a_clear_error
     head = data.head(40)
     assert len(head) == 40 and torch.equal(head.rows, data.rows[:40]) and torch.equal(head.rewards, data.rewards[:40])
     assert data.head(None) is data
-    with pytest.raises(ValueError, match="t2m datagen --size 101"):
+    with pytest.raises(T2MError, match="t2m datagen --size 101"):
         data.head(101)
 
 

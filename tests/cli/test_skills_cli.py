@@ -1,0 +1,69 @@
+"""`t2m train` and `t2m calibrate` end to end on a small scripted dataset: the commands train a
+learning-curve prefix, record it, and calibrate what planning would do with invalid pairs."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from typer.testing import CliRunner
+
+from t2m_core.cli.main import app
+from t2m_core.data import generate
+from t2m_core.data.generate import DatasetJob, generate_dataset
+from tests.core.plugin_doubles import ScriptedSimulator
+
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory):
+    """Pick transitions that succeed exactly when the action's first component is positive."""
+    root = tmp_path_factory.mktemp("data")
+    patch = pytest.MonkeyPatch()
+    patch.setattr(generate, "_WORKER_SIMULATORS", {("scripted", "[]"): ScriptedSimulator(lambda action: action[0] > 0.0)})
+    try:
+        for split, size, seed in (("train", 400, 1), ("validation", 200, 2), ("invalid", 200, 3)):
+            generate_dataset(DatasetJob(root, "pick", split, size, 100, base_seed=seed, sampler="uniform", simulator="scripted"))
+    finally:
+        patch.undo()
+    return root
+
+
+def test_train_on_a_prefix_then_calibrate(dataset, tmp_path) -> None:
+    out = tmp_path / "checkpoints"
+    trained = runner.invoke(
+        app,
+        ["train", "--skill", "pick", "--data", str(dataset), "--out", str(out), "--steps", "300", "--eval-every", "100",
+         "--train-size", "200", "--json"],
+    )
+    assert trained.exit_code == 0, trained.output
+    config = json.loads((out / "pick" / "config.json").read_text())
+    assert {m["training"]["train_size"] for m in config["models"].values()} == {200}
+    assert config["models"]["q"]["training"]["ensemble_batches"] == "shared"
+    curve = [json.loads(line) for line in (out / "pick" / "metrics-q.jsonl").read_text().splitlines()]
+    assert [r["step"] for r in curve] == [100, 200, 300]
+
+    calibrated = runner.invoke(app, ["calibrate", "--skill", "pick", "--data", str(dataset), "--out", str(out), "--json"])
+    assert calibrated.exit_code == 0, calibrated.output
+    ood = json.loads((out / "pick" / "config.json").read_text())["ood"]
+    assert ood["invalid_pairs"] == 200 and ood["in_distribution_pairs"] == 200
+    assert ood["false_positive_rate"] <= 0.01 + 1e-9
+    # the pessimistic Q is at most the mean: every invalid pair with mean Q < 0.5 is rejected
+    assert ood["invalid_rejected_rate"] >= 1.0 - ood["invalid_share_with_q_high"] - 1e-9
+    assert ood["invalid_rejected_rate"] >= ood["detection_rate"] - 1e-9
+
+
+def test_a_prefix_longer_than_the_split_is_a_clear_error(dataset, tmp_path) -> None:
+    result = runner.invoke(
+        app, ["train", "--skill", "pick", "--model", "q", "--data", str(dataset), "--out", str(tmp_path), "--steps", "10", "--train-size", "401"]
+    )
+    assert result.exit_code != 0
+    assert "t2m datagen --size 401" in result.output
+
+
+def test_an_unknown_ensemble_batching_is_refused(dataset, tmp_path) -> None:
+    result = runner.invoke(
+        app, ["train", "--skill", "pick", "--model", "q", "--data", str(dataset), "--out", str(tmp_path), "--ensemble-batches", "bagging"]
+    )
+    assert result.exit_code != 0 and "shared or bootstrap" in result.output
