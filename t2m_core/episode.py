@@ -152,7 +152,10 @@ def run_episode(
         if goal_query.goal is None:
             problems = [a.problem for a in goal_query.attempts if a.problem]
             result.failure_type = PLANNING_FAILURE
-            result.failure = "no valid goal prediction" + (f": {problems[-1]}" if problems else "")
+            if goal_query.no_goal is not None:  # the instruction has no goal in this scene: say why
+                result.failure = f"no valid goal: {goal_query.no_goal.reason}"
+            else:
+                result.failure = "no valid goal prediction" + (f": {problems[-1]}" if problems else "")
             return result
         result.predicted_goal = goal_query.goal.to_lists()
         context = PlanningContext(text, goal_query.goal, session, skills, feasibility, objects, encode_observation(state, objects),

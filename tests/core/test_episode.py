@@ -70,10 +70,19 @@ def test_an_instruction_with_no_valid_goal_is_a_planning_failure_with_a_complete
     result = runner.invoke(app, ["run", *SELECTION, "--instruction", "make me a sandwich", "--out", str(tmp_path)])
     assert result.exit_code == 1
     record = json.loads((tmp_path / "result.json").read_text())
-    assert record["failure_type"] == "planning_failure" and record["failure"].startswith("no valid goal prediction")
+    assert record["failure_type"] == "planning_failure" and record["failure"].startswith("no valid goal")
     assert record["instruction"] == "make me a sandwich" and record["goal_source"] == "predicted"
     assert record["executed"] == [] and record["plan"] == []
     assert (tmp_path / "config.yaml").exists() and (tmp_path / "plan_tree.jsonl").exists()
+
+
+def test_an_instruction_about_an_absent_object_names_the_objects_there_are(t2m_registry, t2m_plugin, tmp_path) -> None:
+    install(t2m_plugin, RuleModel(goal=GOAL))
+    result = runner.invoke(app, ["run", *SELECTION, "--instruction", "put the red box on the rack", "--out", str(tmp_path)])
+    assert result.exit_code == 1
+    record = json.loads((tmp_path / "result.json").read_text())
+    assert record["failure_type"] == "planning_failure" and record["failure"].startswith("no valid goal: ")
+    assert "red box" in record["failure"] and "blue_box" in record["failure"] and record["llm_calls"] == 0
 
 
 def test_an_unwritable_run_directory_is_one_line_of_error(t2m_registry, t2m_plugin, tmp_path) -> None:
