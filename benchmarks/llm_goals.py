@@ -25,7 +25,7 @@ from rich.console import Console
 from rich.table import Table
 
 from t2m_core.atomic_files import write_json_atomic
-from t2m_core.language.goal_cases import describe_case, initial_facts, load_goal_cases
+from t2m_core.language.goal_cases import describe_case, initial_facts, load_goal_cases, load_heldout_cases
 from t2m_core.language.goal_judging import judge_goal, reachable_states
 from t2m_core.language.scene_description import describe_task_scene
 from t2m_core.language.selection import create_language_model
@@ -37,9 +37,11 @@ from t2m_core.tasks.symbolic_model import initial_facts as task_facts
 def cases(sets: list[str], seed: int) -> list[dict[str, Any]]:
     """``{set, id, tags, scene, truth, facts, objects}`` per case, scenes sampled for ``seed``."""
     rows = []
-    if "new" in sets:
-        for case in load_goal_cases():
-            rows.append({"set": "new", "id": case.id, "tags": list(case.tags), "scene": describe_case(case, seed),
+    for name, load in (("new", load_goal_cases), ("heldout", load_heldout_cases)):
+        if name not in sets:
+            continue
+        for case in load():
+            rows.append({"set": name, "id": case.id, "tags": list(case.tags), "scene": describe_case(case, seed),
                          "truth": case.goal, "no_goal": case.no_goal, "facts": initial_facts(case.scene),
                          "objects": case.scene.objects, "scene_name": case.scene.name})
     if "suite" in sets:
@@ -102,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--llm", default="local")
     parser.add_argument("--set", dest="settings", action="append", default=[], help="model option KEY=VALUE")
     parser.add_argument("--seed", type=int, default=0, help="scene seed and example order")
-    parser.add_argument("--sets", default="new,suite", help="new (the goal evaluation set), suite (the 7 tasks)")
+    parser.add_argument("--sets", default="new,suite", help="new (the goal evaluation set), heldout (the held-out set, kept out of tuning), suite (the 7 tasks)")
     parser.add_argument("--ids", default="", help="comma-separated case ids to run (default: all)")
     parser.add_argument("--no-cues", action="store_true", help="goal answers without the instruction cues")
     parser.add_argument("--json", dest="json_out", type=Path, required=True)
