@@ -18,7 +18,7 @@ Two more steps read the answer as the small models mean it. Alternatives of a li
 one shape (the same relations to the same places, other objects); an answer whose alternatives
 differ in shape lists the parts of one goal, and is merged into one conjunction when that can be
 reached (:func:`merge_mixed_alternatives`: ``[['on(red_box, rack)'], ['inhand(hook)']]``). And a
-goal keeps to what the instruction names (:func:`prefer_named_objects`): when
+goal keeps to what the instruction names, by name or as the object in hand (:func:`prefer_named_objects`): when
 some alternatives move only objects the instruction names and others move objects it does not
 name, the latter are dropped (a small model that got "the blue box" right often goes on to list
 the other boxes as alternatives).
@@ -36,8 +36,8 @@ from t2m_core.domain.goals import Goal
 from t2m_core.domain.objects import OBJECTS, ObjectKind
 from t2m_core.domain.propositions import GOAL_PREDICATES, Proposition
 from t2m_core.domain.skills import SKILLS
-from t2m_core.language.example_retrieval import stem
 from t2m_core.domain.symbolic_effects import apply_effects, precondition_problems
+from t2m_core.language.example_retrieval import stem
 
 D_MAX = 10
 """Longest plan considered, in skills (docs/guide/planners.md#constants)."""
@@ -58,7 +58,7 @@ class NoGoal:
     reason: str
 
 
-def _spoken_name(name: str) -> str:
+def spoken_name(name: str) -> str:
     """The word an instruction uses for an object: the box's colour, else the object's name."""
     return name.removesuffix("_box") if OBJECTS[name].kind is ObjectKind.BOX else name
 
@@ -66,7 +66,7 @@ def _spoken_name(name: str) -> str:
 def named_objects(instruction: str, objects: Sequence[str]) -> tuple[str, ...]:
     """Scene objects the instruction names (``red`` for the red box, ``hook``...)."""
     said = set(re.findall(r"[a-z]+", instruction.lower()))
-    return tuple(name for name in objects if name in OBJECTS and _spoken_name(name) in said)
+    return tuple(name for name in objects if name in OBJECTS and spoken_name(name) in said)
 
 
 def _moved(alternative: Sequence[Proposition]) -> set[str]:
@@ -74,11 +74,25 @@ def _moved(alternative: Sequence[Proposition]) -> set[str]:
     return {arg for p in alternative for arg in p.args if OBJECTS[arg].kind in (ObjectKind.BOX, ObjectKind.HOOK)}
 
 
-def prefer_named_objects(goal: Goal, instruction: str, objects: Sequence[str]) -> Goal:
-    """``goal`` without the alternatives about movable objects the instruction does not name, when
-    others are only about named ones; unchanged when the instruction names no movable object or
-    every alternative involves an unnamed one ("the cyan box and one other box")."""
+HELD_REFERENCES = frozenset(("holding", "carrying", "gripper", "hand"))
+"""Words by which an instruction can mean the object in hand ("what you're holding")."""
+
+
+def held_objects(instruction: str, relationships: Sequence[str]) -> tuple[str, ...]:
+    """The objects in hand (``inhand(x)`` among ``relationships``) when the instruction refers to
+    what is held (:data:`HELD_REFERENCES`): "put down what you're holding" names the held box."""
+    if not HELD_REFERENCES & set(re.findall(r"[a-z]+", instruction.lower())):
+        return ()
+    return tuple(p.args[0] for p in map(Proposition.coerce, relationships) if p.predicate == "inhand")
+
+
+def prefer_named_objects(goal: Goal, instruction: str, objects: Sequence[str], relationships: Sequence[str] = ()) -> Goal:
+    """``goal`` without the alternatives about movable objects the instruction does not name (by
+    name, or as the object in hand: :func:`held_objects`), when others are only about named ones;
+    unchanged when the instruction names no movable object or every alternative involves an
+    unnamed one ("the cyan box and one other box")."""
     named = {name for name in named_objects(instruction, objects) if OBJECTS[name].kind in (ObjectKind.BOX, ObjectKind.HOOK)}
+    named |= set(held_objects(instruction, relationships))
     if not named:
         return goal
     kept = tuple(alternative for alternative in goal if _moved(alternative) <= named)
@@ -88,7 +102,7 @@ def prefer_named_objects(goal: Goal, instruction: str, objects: Sequence[str]) -
 def absent_objects(instruction: str, objects: Sequence[str]) -> tuple[str, ...]:
     """TableEnv objects the instruction names (``red`` for the red box, ``hook``...) that the scene lacks."""
     said = set(re.findall(r"[a-z]+", instruction.lower()))
-    return tuple(name for name in OBJECTS if name not in objects and _spoken_name(name) in said)
+    return tuple(name for name in OBJECTS if name not in objects and spoken_name(name) in said)
 
 
 def absent_object_reason(instruction: str, objects: Sequence[str]) -> NoGoal | None:
@@ -104,7 +118,7 @@ def absent_object_reason(instruction: str, objects: Sequence[str]) -> NoGoal | N
 def world_vocabulary() -> frozenset[str]:
     """Words that name something of the TableEnv world: objects (``red`` for the red box, ``hook``),
     object kinds (``box``), skills (``pick``...) and goal predicates (``on``, ``under``)."""
-    names = {_spoken_name(name) for name in OBJECTS} | {kind.name.lower() for kind in ObjectKind}
+    names = {spoken_name(name) for name in OBJECTS} | {kind.name.lower() for kind in ObjectKind}
     return frozenset(stem(word) for word in names | set(SKILLS) | set(GOAL_PREDICATES))
 
 

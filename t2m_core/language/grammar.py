@@ -17,7 +17,7 @@ import json
 import math
 from collections.abc import Sequence
 
-from t2m_core.domain.objects import OBJECTS
+from t2m_core.domain.objects import OBJECTS, ObjectKind
 from t2m_core.domain.skills import SKILLS, STOP
 from t2m_core.language.instruction_cues import GOAL_RELATIONS, CountCue
 
@@ -42,6 +42,12 @@ def _repeat(item: str, at_least: int, at_most: int) -> str:
 _COMMON = 'ws ::= " "?\nq ::= "\'"\n'
 
 
+def _holdable(objects: Sequence[str]) -> list[str]:
+    """The scene's boxes and hook (all its objects when it has none)."""
+    movable = [name for name in objects if name in OBJECTS and OBJECTS[name].kind in (ObjectKind.BOX, ObjectKind.HOOK)]
+    return movable or list(objects)
+
+
 def goal_grammar(
     objects: Sequence[str],
     max_alternatives: int = MAX_GOAL_ALTERNATIVES,
@@ -56,12 +62,20 @@ def goal_grammar(
     Args:
         objects: the scene's objects.
         max_alternatives, max_propositions: list bounds (without ``count``).
-        relations: the binary relations allowed (``("on",)`` when the instruction names only *on*).
+        relations: the binary relations allowed (``("on",)`` when the instruction names only *on*;
+            none: only ``inhand`` propositions, and ``count`` is not used).
         count: a counted box phrase: every alternative then holds exactly ``count.k`` propositions
             ``relation(box, destination)`` followed by at most one ``on(box, table)`` per other box,
             and there are at most C(boxes, k) alternatives.
     """
     relation = "(" + " | ".join(_literal(name) for name in relations) + ")"
+    if not relations:
+        return (
+            f'root ::= ws ("[]" | "[" {_repeat("alt", 1, max_alternatives)} "]")\n'
+            f'alt ::= "[" {_repeat("prop", 1, max_propositions)} "]"\n'
+            'prop ::= q "inhand(" obj ")" q\n'
+            f"obj ::= {_alternation(_holdable(objects))}\n" + _COMMON
+        )
     if count is not None:
         others = len(count.boxes) - count.k
         more_counted = f'("," ws counted){{{count.k - 1}}} ' if count.k > 1 else ""

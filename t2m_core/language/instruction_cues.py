@@ -58,10 +58,26 @@ def words(text: str) -> list[str]:
     return re.findall(r"[a-z]+", text.lower())
 
 
+HOLD_WORDS = frozenset(["hold", "holding", "holds", "grab", "grabbing", "grasp", "grip", "carry", "carrying", "pick", "lift"])
+"""Words that ask for an object in hand."""
+HAND_WORDS = frozenset(("hand", "gripper"))
+"""With ``in``, words that say where an object is held."""
+
+
+def asks_to_hold(said: Sequence[str]) -> bool:
+    """Whether the words ``said`` ask for something in hand: a :data:`HOLD_WORDS` word, or ``in``
+    with ``hand`` or ``gripper``."""
+    return bool(HOLD_WORDS.intersection(said)) or ("in" in said and bool(HAND_WORDS.intersection(said)))
+
+
 def named_relations(instruction: str) -> tuple[str, ...]:
-    """The goal relations the instruction's words name, in :data:`GOAL_RELATIONS` order; both when it
-    names neither (nothing to go by)."""
-    named = {RELATION_WORDS[word] for word in words(instruction) if word in RELATION_WORDS}
+    """The binary goal relations the instruction's words name, in :data:`GOAL_RELATIONS` order;
+    none when it only asks to hold something (:func:`asks_to_hold`: goals of ``inhand`` alone);
+    both when it names neither (nothing to go by). ``inhand`` is always allowed besides."""
+    said = words(instruction)
+    named = {RELATION_WORDS[word] for word in said if word in RELATION_WORDS}
+    if not named and asks_to_hold(said):
+        return ()
     return tuple(relation for relation in GOAL_RELATIONS if relation in named) or GOAL_RELATIONS
 
 
@@ -91,15 +107,44 @@ class CountCue:
     pins: bool
 
 
+COLOUR_CATEGORIES = {
+    "warm": frozenset({"red", "orange", "yellow"}),
+    "cool": frozenset({"blue", "cyan", "green", "purple", "violet"}),
+    "primary": frozenset({"red", "yellow", "blue"}),
+    "secondary": frozenset({"green", "orange", "purple"}),
+}
+"""Colour categories and the colours they hold (general colour knowledge, not the world's)."""
+_BOX_WORDS = frozenset(("box", "boxes", "ones"))
+
+
+def category_boxes(instruction: str, objects: Sequence[str]) -> tuple[str, ...] | None:
+    """The scene's boxes of the colour category the instruction names ("the warm-colored boxes",
+    "two primary colored boxes"), in scene order; ``None`` when it names none (or the scene has
+    none of that category)."""
+    said = words(instruction)
+    category = next((word for word in said if word in COLOUR_CATEGORIES), None)
+    if category is None or not _BOX_WORDS.intersection(said):
+        return None
+    members = tuple(name for name in boxes(objects) if name.removesuffix("_box") in COLOUR_CATEGORIES[category])
+    return members or None
+
+
 def count_cue(instruction: str, objects: Sequence[str]) -> CountCue | None:
     """The instruction's counted box phrase, or ``None`` when it counts no boxes (or counts more
-    boxes than the scene has, or "all" of a described class, whose size only the model knows)."""
-    match = _COUNT_PHRASE.search(" ".join(words(instruction)))
+    boxes than the scene has, or "all" of a described class, whose size only the model knows).
+
+    A colour category (:func:`category_boxes`) is a class whose members are known: the count ranges
+    over them, and a category named without a count ("the cool-colored boxes") counts all of them."""
+    text = " ".join(words(instruction))
+    match = _COUNT_PHRASE.search(text)
     scene_boxes = boxes(objects)
-    if match is None or not scene_boxes:
+    members = category_boxes(instruction, objects)
+    if not scene_boxes or (match is None and members is None):
         return None
-    described = bool(match.group("described").strip())
-    k = _COUNT_WORDS[match.group("count")]
+    described = match is not None and bool(match.group("described").strip())
+    k = _COUNT_WORDS[match.group("count")] if match is not None else None
+    if members is not None:
+        scene_boxes, described = members, False
     if k is None:
         if described:
             return None

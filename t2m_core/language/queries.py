@@ -29,6 +29,7 @@ from t2m_core.language.goal_checks import (
     unreachable_reason,
     unrelated_reason,
 )
+from t2m_core.language.instruction_checks import two_in_hand_reason, unknown_thing_reason
 from t2m_core.language.parsing import SkillCandidates, parse_goal_or_none, parse_skill_candidates, parse_skill_sequences
 from t2m_core.language.prompts import GOAL_REQUEST, NEXT_SKILL_REQUEST, SHOOTING_REQUEST, K
 from t2m_core.protocols import LanguageModel
@@ -111,6 +112,18 @@ def _ask_until_valid(
     return value, attempts
 
 
+def refusal(instruction: str, objects: Sequence[str]) -> NoGoal | None:
+    """Why ``instruction`` has no goal in a scene of ``objects``, read from its words alone: it names
+    a world object the scene lacks, nothing of the world, a thing no world object is, or two objects
+    to hold at once (:mod:`~t2m_core.language.goal_checks`, :mod:`~t2m_core.language.instruction_checks`)."""
+    return (
+        absent_object_reason(instruction, objects)
+        or unrelated_reason(instruction)
+        or unknown_thing_reason(instruction, objects)
+        or two_in_hand_reason(instruction)
+    )
+
+
 def query_goal(
     model: LanguageModel,
     prompt: str,
@@ -124,8 +137,9 @@ def query_goal(
 ) -> GoalQuery:
     """Ask for the goal; re-query with a note up to ``retries`` times while the answer is invalid.
 
-    With ``instruction``, an instruction that names a TableEnv object missing from the scene, or
-    nothing of the TableEnv world, is refused before the model is asked, and (``cues_on``) its cues
+    With ``instruction``, an instruction that names a TableEnv object missing from the scene,
+    nothing of the TableEnv world, a thing no TableEnv object is, or two objects to hold at once, is
+    refused before the model is asked (:func:`refusal`), and (``cues_on``) its cues
     (:mod:`t2m_core.language.instruction_cues`) shape the answer: the grammar allows only the goal
     relations its words name and, for a counted box phrase ("three of the boxes"), alternatives of
     exactly that many boxes; a uniform counted answer is completed to every subset of that size.
@@ -136,11 +150,11 @@ def query_goal(
     goal; alternatives about objects the instruction does not name give way to those about objects
     it names (:mod:`t2m_core.language.goal_checks`).
     """
-    if instruction and (refused := absent_object_reason(instruction, objects) or unrelated_reason(instruction)) is not None:
+    if instruction and (refused := refusal(instruction, objects)) is not None:
         return GoalQuery(None, [], refused)
     use_cues = bool(instruction) and cues_on
     relations = cues.named_relations(instruction) if use_cues else cues.GOAL_RELATIONS
-    count = cues.count_cue(instruction, objects) if use_cues else None
+    count = cues.count_cue(instruction, objects) if use_cues and relations else None
     grammar = _grammar_for(model, constrained, lambda: grammars.goal_grammar(objects, relations=relations, count=count))
 
     start = set(relationships or ())
@@ -168,7 +182,7 @@ def query_goal(
         if reachable is None:
             return GoalQuery(None, attempts, unreachable_reason(goal))
         goal = reachable
-    preferred = prefer_named_objects(goal, instruction, objects) if instruction else goal
+    preferred = prefer_named_objects(goal, instruction, objects, relationships or ()) if instruction else goal
     return GoalQuery(preferred, attempts, unpreferred=goal)
 
 

@@ -49,8 +49,8 @@ def test_goal_queries_end_in_no_valid_goal_with_a_reason():
     query = query_goal(absent, "ctx\nQ:", OBJECTS, instruction="Put the yellow box on the rack.", relationships=RELATIONS)
     assert query.goal is None and query.no_goal.kind == "absent" and absent.prompts == []  # refused before asking
 
-    empty = Answering(" []")
-    query = query_goal(empty, "ctx\nQ:", OBJECTS, instruction="Put the banana on the rack.", relationships=RELATIONS)
+    empty = Answering(" []")  # an instruction no check reads as refused: the model's [] decides
+    query = query_goal(empty, "ctx\nQ:", OBJECTS, instruction="Make the rack look tidy.", relationships=RELATIONS)
     assert query.goal is None and query.no_goal.kind == "none_expresses" and query.attempts[0].problem is None
     assert '"[]"' in empty.grammars[0]
 
