@@ -19,6 +19,7 @@ from t2m_core.domain.literals import format_string_list
 from t2m_core.domain.skills import SkillCall, SkillError
 from t2m_core.language import grammar as grammars
 from t2m_core.language import instruction_cues as cues
+from t2m_core.language.clearing_cue import cleared_support, complete_cleared_goal
 from t2m_core.language.goal_checks import (
     NONE_EXPRESSES,
     NoGoal,
@@ -142,7 +143,8 @@ def query_goal(
     refused before the model is asked (:func:`refusal`), and (``cues_on``) its cues
     (:mod:`t2m_core.language.instruction_cues`) shape the answer: the grammar allows only the goal
     relations its words name and, for a counted box phrase ("three of the boxes"), alternatives of
-    exactly that many boxes; a uniform counted answer is completed to every subset of that size.
+    exactly that many boxes; a uniform counted answer is completed to every subset of that size, and
+    an answer to "clear the rack" is completed from what rests on it (:mod:`~t2m_core.language.clearing_cue`).
     An answer ``[]`` means no goal expresses the instruction. With ``relationships`` (the scene's),
     an answer with an alternative that already holds is asked again with a note (and kept if the
     model repeats it), alternatives of different shapes are merged into one conjunction when it can
@@ -176,6 +178,8 @@ def query_goal(
     if goal is None:
         return GoalQuery(None, attempts, NONE_EXPRESSES)
     goal = cues.complete_counted_goal(goal, count)
+    if use_cues and relationships is not None:
+        goal = complete_cleared_goal(goal, cleared_support(instruction, objects), relationships)
     if relationships is not None:
         goal = merge_mixed_alternatives(goal, objects, relationships)
         reachable = reachable_alternatives(goal, objects, relationships)
