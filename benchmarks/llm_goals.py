@@ -21,8 +21,8 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
+from figure_table import print_figure_table
 from rich.console import Console
-from rich.table import Table
 
 from t2m_core.atomic_files import write_json_atomic
 from t2m_core.language.goal_cases import describe_case, initial_facts, load_goal_cases, load_heldout_cases
@@ -130,12 +130,7 @@ def main(argv: list[str] | None = None) -> int:
     write_json_atomic(args.json_out, figures)
 
     cue_text = "with" if not args.no_cues else "without"
-    table = Table(title=f"goal accuracy, {args.llm} {options or ''}, {cue_text} cues, seed {args.seed}", title_justify="left")
-    table.add_column("figure")
-    table.add_column("value", justify="right")
-    for key, value in figures["summary"].items():
-        table.add_row(key, f"{value:.3f}" if isinstance(value, float) else str(value))
-    Console().print(table)
+    print_figure_table(f"goal accuracy, {args.llm} {options or ''}, {cue_text} cues, seed {args.seed}", figures["summary"])
     return 0
 
 

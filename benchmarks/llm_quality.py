@@ -32,9 +32,9 @@ import time
 from pathlib import Path
 from typing import Any
 
+from figure_table import print_figure_table
 from rich.console import Console
 from rich.progress import Progress
-from rich.table import Table
 
 from t2m_core.atomic_files import write_json_atomic
 from t2m_core.domain.goals import parse_goal
@@ -215,15 +215,10 @@ def main(argv: list[str] | None = None) -> int:
     args.json_out.parent.mkdir(parents=True, exist_ok=True)
     write_json_atomic(args.json_out, figures)
 
-    table = Table(title=f"llm_quality --llm {args.llm} (seed {args.seed})", title_justify="left")
-    table.add_column("figure")
-    table.add_column("value", justify="right")
-    for key in ("load_time_s", "generation_tokens_per_s", "ms_per_scored_candidate"):
-        if key in figures:
-            table.add_row(key, f"{figures[key]:.2f}")
-    for key, value in figures["summary"].items():
-        table.add_row(key, f"{value:.3f}" if isinstance(value, float) else str(value))
-    Console().print(table)
+    speeds = {key: figures[key] for key in ("load_time_s", "generation_tokens_per_s", "ms_per_scored_candidate") if key in figures}
+    print_figure_table(
+        f"llm_quality --llm {args.llm} (seed {args.seed})", {**speeds, **figures["summary"]}, digits=dict.fromkeys(speeds, 2)
+    )
     return 0
 
 
