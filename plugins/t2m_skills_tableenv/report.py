@@ -9,7 +9,6 @@ detection and false-positive rates stored by calibration; the dataset sizes.
 from __future__ import annotations
 
 import io
-from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +20,8 @@ from t2m_core.data.scenes import DATA_SKILLS
 from t2m_core.domain.geometry import axis_angle_to_quat, quat_yaw, wrap_angle
 from t2m_core.domain.observation import RowOrder, decode_dynamics_prediction
 from t2m_skills_tableenv.dataset import SkillTensors
-from t2m_skills_tableenv.library import TableEnvSkill, load_library
+from t2m_skills_tableenv.episodes import REPORT_SEED, policy_success
+from t2m_skills_tableenv.library import load_library
 from t2m_skills_tableenv.networks import Dynamics
 from t2m_skills_tableenv.options import TableEnvSkillsOptions
 from t2m_skills_tableenv.training import q_metrics
@@ -69,29 +69,6 @@ def dynamics_errors(dynamics: Dynamics, data: SkillTensors, row_orders: np.ndarr
     return summary
 
 
-def policy_success(skill: TableEnvSkill, simulator: Any, episodes: int, seed: int = 0) -> dict[str, Any]:
-    """Success of the deterministic policy over ``episodes`` evaluation scenes, simulated."""
-    from t2m_core.data.evaluation_scenes import evaluation_task
-    from t2m_core.domain.observation import argument_first_order, skill_state
-    from t2m_core.domain.sampling import SamplingError
-
-    rng = np.random.default_rng(seed)
-    outcomes: Counter[str] = Counter()
-    for _ in range(episodes):
-        task = evaluation_task(skill.name, rng)
-        try:
-            reset = simulator.reset(task, seed=int(rng.integers(2**31 - 1)))
-        except SamplingError:
-            outcomes["reset_failed"] += 1
-            continue
-        state = skill_state(reset.observation, argument_first_order(task.objects, task.call.args))
-        action = skill.policy(state[None])[0]
-        result = simulator.execute(skill.name, task.call.args, action)
-        outcomes[result.failure or "success"] += 1
-    simulated = sum(v for k, v in outcomes.items() if k != "reset_failed")
-    return {"episodes": simulated, "success_rate": outcomes["success"] / simulated if simulated else 0.0, "outcomes": dict(outcomes)}
-
-
 def report_library(checkpoints: Path, data: Path | None, episodes: int, out: Path, simulator: Any | None) -> dict[str, Any]:
     """Measure every skill of the library in ``checkpoints``; write ``report.json``, ``report.md``
     and ``reliability.png`` into ``out``; return the report."""
@@ -120,7 +97,7 @@ def report_library(checkpoints: Path, data: Path | None, episodes: int, out: Pat
                 skill.dynamics, validation.successes(), transitions.row_order[keep], transitions.shuffle_range[keep], transitions.observation[keep], transitions.next_observation[keep]
             )
         if simulator is not None and episodes > 0:
-            entry["policy"] = policy_success(skill, simulator, episodes)
+            entry["policy"] = policy_success(skill.name, skill.policy, simulator, episodes, seed=REPORT_SEED)
         report[name] = entry
     out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(out / "report.json", report)

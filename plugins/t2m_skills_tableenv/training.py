@@ -48,6 +48,10 @@ class StageSettings(BaseModel):
     train_size: int | None = Field(
         None, gt=0, description="train on the first N training transitions only (what `t2m datagen --size N` writes); None: all"
     )
+    selection_episodes: int = Field(
+        0, ge=0, description="policy only: simulated evaluation episodes that select the policy at every evaluation "
+        "(0: select by the frozen ensemble's min-of-8 Q on validation states)"
+    )
     ensemble_batches: Literal["shared", "bootstrap"] = Field(
         "shared",
         description="Q-ensemble only: every member sees the same batches (the published setting), or each "
@@ -57,7 +61,7 @@ class StageSettings(BaseModel):
 
 DEFAULT_SETTINGS: dict[str, StageSettings] = {
     "q": StageSettings(steps=40_000, batch_size=128, learning_rate=3e-4),
-    "policy": StageSettings(steps=20_000, batch_size=128, learning_rate=1e-4),
+    "policy": StageSettings(steps=20_000, batch_size=128, learning_rate=1e-4, selection_episodes=50),
     "dynamics": StageSettings(steps=20_000, batch_size=512, learning_rate=5e-4),
 }
 """CPU-scale defaults (docs/guide/skills.md#training-schedule)."""
@@ -141,12 +145,24 @@ class QStage(Stage):
 
 class PolicyStage(Stage):
     """Maximum-entropy actor against the frozen ensemble: minimise α·log π(ã|s) − min_i Q_i(s, ã),
-    with α learned through log α towards the target entropy −4."""
+    with α learned through log α towards the target entropy −4.
+
+    The policy is selected by ``simulate(network) -> success rate`` in simulated evaluation scenes
+    when given (the published selection), else by the ensemble's mean min-of-8 Q of its actions on
+    validation states (a policy can climb that by exploiting the ensemble's errors)."""
 
     model = "policy"
 
-    def __init__(self, train: SkillTensors, validation: SkillTensors, q_ensemble: QEnsemble, settings: StageSettings) -> None:
+    def __init__(
+        self,
+        train: SkillTensors,
+        validation: SkillTensors,
+        q_ensemble: QEnsemble,
+        settings: StageSettings,
+        simulate: Callable[[GaussianPolicy], float] | None = None,
+    ) -> None:
         self.train, self.validation = train, validation
+        self.simulate = simulate
         self.q_ensemble = q_ensemble.requires_grad_(False)
         self.network = GaussianPolicy()
         self.log_alpha = _LogAlpha()
@@ -181,7 +197,11 @@ class PolicyStage(Stage):
         states = self.validation.states()
         q_min = self.q_ensemble.probabilities(states, self.network(states)).min(dim=1).values
         metrics = {"q_min_mean": float(q_min.mean()), "q_min_above_half": float((q_min > 0.5).float().mean())}
-        return Evaluation(metrics["q_min_mean"], metrics)
+        if self.simulate is None:
+            return Evaluation(metrics["q_min_mean"], metrics)
+        metrics["simulated_success"] = float(self.simulate(self.network))
+        # ties in simulated success (a few dozen episodes) go to the ensemble's judgement
+        return Evaluation(metrics["simulated_success"] + 1e-3 * metrics["q_min_mean"], metrics)
 
 
 class DynamicsStage(Stage):
@@ -373,9 +393,13 @@ def train_skill(
     overrides: dict[str, Any] | None = None,
     *,
     on_progress: Callable[[str, int, int, dict[str, float]], None] | None = None,
+    simulator: str = "mujoco",
 ) -> dict[str, Any]:
     """Train ``models`` (in the order q, policy, dynamics) of ``skill`` from the dataset ``data``
     (``DIR`` of ``t2m datagen``) into the checkpoint directory ``checkpoint``.
+
+    The policy is selected in episodes simulated by the simulator plugin ``simulator`` when its
+    ``selection_episodes`` is positive (the default).
 
     The policy needs the Q-ensemble already in ``checkpoint`` when ``q`` is not trained with it.
     ``overrides`` replace fields of every stage's :data:`DEFAULT_SETTINGS` (e.g. ``{"steps": 2000}``);
@@ -403,7 +427,8 @@ def train_skill(
             stage: Stage = QStage(stage_train, validation, stage_settings)
         elif model == "policy":
             q_ensemble = load_weights(checkpoint / WEIGHT_FILES["q"], QEnsemble())
-            stage = PolicyStage(stage_train, validation, q_ensemble, stage_settings)
+            simulate = _simulated_selection(skill, simulator, stage_settings.selection_episodes) if stage_settings.selection_episodes else None
+            stage = PolicyStage(stage_train, validation, q_ensemble, stage_settings, simulate)
         else:
             stage = DynamicsStage(stage_train, validation, stage_settings)
         total = stage_settings.steps
@@ -411,3 +436,18 @@ def train_skill(
         results[model] = run_stage(stage, stage_settings, checkpoint, on_progress=report)
         record_stage(checkpoint, skill, model, stage_settings, results[model], digests)
     return results
+
+
+def _simulated_selection(skill: str, simulator_name: str, episodes: int) -> Callable[[GaussianPolicy], float]:
+    """``policy network -> success rate`` over the same ``episodes`` evaluation scenes every time."""
+    from t2m_core.registry import get_registry
+    from t2m_skills_tableenv.episodes import SELECTION_SEED, policy_success
+
+    simulator = get_registry().create("simulator", simulator_name)
+
+    def simulate(network: GaussianPolicy) -> float:
+        with torch.no_grad():
+            act = lambda states: network(torch.as_tensor(states, dtype=torch.float32)).numpy()  # noqa: E731
+            return policy_success(skill, act, simulator, episodes, seed=SELECTION_SEED)["success_rate"]
+
+    return simulate

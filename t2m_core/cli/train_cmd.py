@@ -48,6 +48,11 @@ def train(
     ensemble_batches: Annotated[
         str | None, typer.Option("--ensemble-batches", help="Q-ensemble batches: shared (published) or bootstrap.")
     ] = None,
+    selection_episodes: Annotated[
+        int | None,
+        typer.Option("--selection-episodes", min=0, help="Simulated episodes selecting the policy at each evaluation (0: by the Q-ensemble)."),
+    ] = None,
+    sim: Annotated[str, typer.Option("--sim", help="Simulator plugin of the policy-selection episodes.")] = "mujoco",
     as_json: Annotated[bool, typer.Option("--json", help="Print the results as JSON on stdout.")] = False,
 ) -> None:
     """Train a skill library's models on a dataset. Rerunning the same command after a kill resumes
@@ -58,16 +63,19 @@ def train(
     trainer = library_entry(library, "trainer")
     if ensemble_batches not in (None, "shared", "bootstrap"):
         raise T2MError(f"unknown --ensemble-batches {ensemble_batches!r}", "use shared or bootstrap")
-    chosen = (("steps", steps), ("eval_every", eval_every), ("train_size", train_size), ("ensemble_batches", ensemble_batches))
+    chosen = (
+        ("steps", steps), ("eval_every", eval_every), ("train_size", train_size), ("ensemble_batches", ensemble_batches),
+        ("selection_episodes", selection_episodes),
+    )
     overrides = {key: value for key, value in chosen if value is not None}
     results = {}
     for name in _skills(skill):
-        results[name] = _train_with_progress(trainer, name, models, data, out / name, overrides)
+        results[name] = _train_with_progress(trainer, name, models, data, out / name, overrides, sim)
     if as_json:
         typer.echo(json.dumps(results, indent=2))
 
 
-def _train_with_progress(trainer: Any, skill: str, models: tuple[str, ...], data: Path, checkpoint: Path, overrides: dict[str, Any]) -> dict[str, Any]:
+def _train_with_progress(trainer: Any, skill: str, models: tuple[str, ...], data: Path, checkpoint: Path, overrides: dict[str, Any], sim: str) -> dict[str, Any]:
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
@@ -79,10 +87,10 @@ def _train_with_progress(trainer: Any, skill: str, models: tuple[str, ...], data
         tasks = {m: bar.add_task(f"{skill} {m}", total=None, metric="") for m in models}
 
         def update(model: str, step: int, total: int, record: dict[str, float]) -> None:
-            shown = {k: v for k, v in record.items() if k in ("loss", "precision", "recall", "q_min_mean")}
+            shown = {k: v for k, v in record.items() if k in ("loss", "precision", "recall", "q_min_mean", "simulated_success")}
             bar.update(tasks[model], completed=step, total=total, metric=" ".join(f"{k} {v:.4g}" for k, v in shown.items()))
 
-        result = trainer(skill, models, data, checkpoint, overrides, on_progress=update)
+        result = trainer(skill, models, data, checkpoint, overrides, on_progress=update, simulator=sim)
     for model, outcome in result.items():
         console.print(f"{skill} {model}: best at step {outcome['best_step']}: {outcome['best']} ({outcome['steps_per_second']} steps/s)")
     return result

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 import torch
 
@@ -99,6 +100,30 @@ def test_the_policy_climbs_the_frozen_q_ensemble(tmp_path) -> None:
     actions = stage.network(validation.states())
     # the learned actions succeed by the rule the data was made with
     assert (actions[:, 0] > validation.rows[:, 0, 0] * 2).float().mean() > 0.8
+
+
+def test_simulated_success_selects_the_policy_over_the_ensembles_judgement(tmp_path) -> None:
+    train, validation = synthetic(2048, 0), synthetic(512, 1)
+    q_settings = StageSettings(steps=300, batch_size=128, learning_rate=3e-3, eval_every=300)
+    q_stage = QStage(train, validation, q_settings)
+    run_stage(q_stage, q_settings, tmp_path)
+    rates = iter([0.2, 0.9, 0.5, 0.4])  # a double: the second evaluation's policy succeeds most
+    settings = StageSettings(steps=400, batch_size=128, learning_rate=3e-3, eval_every=100, selection_episodes=10)
+    stage = PolicyStage(train, validation, q_stage.network, settings, simulate=lambda network: next(rates))
+    result = run_stage(stage, settings, tmp_path)
+    assert result["best_step"] == 200 and result["best"]["simulated_success"] == 0.9
+
+
+def test_policy_success_counts_the_simulated_outcomes() -> None:
+    from t2m_skills_tableenv.episodes import policy_success
+    from tests.core.plugin_doubles import ScriptedSimulator
+
+    simulator = ScriptedSimulator(lambda action: action[0] > 0.0)
+    good = policy_success("pick", lambda states: np.full((len(states), 4), 0.5), simulator, 6)
+    bad = policy_success("pick", lambda states: np.full((len(states), 4), -0.5), simulator, 6)
+    assert good["success_rate"] == 1.0 and good["outcomes"] == {"success": 6}
+    assert bad["success_rate"] == 0.0 and bad["outcomes"] == {"collision": 6}
+    assert simulator.executions == 12
 
 
 def test_dynamics_trains_on_successes_and_lowers_the_error(tmp_path) -> None:

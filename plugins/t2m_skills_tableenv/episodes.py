@@ -1,0 +1,48 @@
+"""A policy's success in simulated evaluation scenes (docs/guide/skills.md#evaluation-scenes): what
+the quality report measures and what selects the policy during training."""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+REPORT_SEED = 0
+"""Seed of the report's episodes."""
+SELECTION_SEED = 1
+"""Seed of the episodes that select the policy during training: other scenes than the report's, so
+that the reported success is not measured on the scenes the policy was chosen on."""
+
+
+def policy_success(skill: str, policy: Callable[[np.ndarray], Any], simulator: Any, episodes: int, seed: int = REPORT_SEED) -> dict[str, Any]:
+    """Success of a deterministic policy over ``episodes`` evaluation scenes of ``skill``, simulated.
+
+    Args:
+        policy: skill states ``(1, 96)`` -> actions ``(1, 4)`` in [−1, 1].
+        seed: the scenes (the same seed gives the same scenes and reset seeds).
+
+    Returns:
+        ``episodes`` simulated (scenes that could not be reset are not counted), ``success_rate``,
+        and ``outcomes``: the count of each failure reason and of ``success``.
+    """
+    from t2m_core.data.evaluation_scenes import evaluation_task
+    from t2m_core.domain.observation import argument_first_order, skill_state
+    from t2m_core.domain.sampling import SamplingError
+
+    rng = np.random.default_rng(seed)
+    outcomes: Counter[str] = Counter()
+    for _ in range(episodes):
+        task = evaluation_task(skill, rng)
+        try:
+            reset = simulator.reset(task, seed=int(rng.integers(2**31 - 1)))
+        except SamplingError:
+            outcomes["reset_failed"] += 1
+            continue
+        state = skill_state(reset.observation, argument_first_order(task.objects, task.call.args))
+        action = np.asarray(policy(state[None]))[0]
+        result = simulator.execute(skill, task.call.args, action)
+        outcomes[result.failure or "success"] += 1
+    simulated = sum(v for k, v in outcomes.items() if k != "reset_failed")
+    return {"episodes": simulated, "success_rate": outcomes["success"] / simulated if simulated else 0.0, "outcomes": dict(outcomes)}
