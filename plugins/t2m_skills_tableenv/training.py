@@ -311,7 +311,7 @@ def run_stage(
     saved = stage.parameters_to_save()
     if state_path.exists():
         extra = load_training_state(state_path, {**saved, "generator": _GeneratorModule(generator)})
-        if extra.get("settings") != settings.model_dump():  # never mix two schedules in one model
+        if _saved_settings(extra.get("settings")) != settings.model_dump():  # never mix two schedules in one model
             raise ValueError(
                 f"{state_path} belongs to a run with other settings ({extra.get('settings')}); delete it to "
                 f"train the {stage.model} model afresh"
@@ -345,6 +345,15 @@ def run_stage(
                 on_progress(step, record)
     steps_per_second = settings.steps / max(time.perf_counter() - started, 1e-9)
     return {"best_step": best["step"], "best": best["metrics"], "steps": settings.steps, "steps_per_second": round(steps_per_second, 1)}
+
+
+def _saved_settings(saved: Any) -> dict[str, Any] | None:
+    """A saved state's settings with the defaults of fields added since it was saved (a run
+    started by an older t2m resumes when its schedule is unchanged)."""
+    try:
+        return StageSettings.model_validate(saved).model_dump()
+    except ValueError:
+        return None
 
 
 class _GeneratorModule(nn.Module):

@@ -165,6 +165,16 @@ def test_a_run_with_other_settings_does_not_mix_with_a_saved_state(tmp_path) -> 
         run_stage(QStage(train, validation, other), other, tmp_path)
 
 
+def test_a_state_saved_before_a_settings_field_existed_still_resumes() -> None:
+    from t2m_skills_tableenv.training import _saved_settings
+
+    settings = StageSettings(steps=10, batch_size=32, learning_rate=1e-3, eval_every=10)
+    older = {k: v for k, v in settings.model_dump().items() if k not in ("selection_episodes", "train_size")}
+    assert _saved_settings(older) == settings.model_dump()
+    assert _saved_settings({**older, "learning_rate": 5e-4}) != settings.model_dump()
+    assert _saved_settings({**older, "unknown": 1}) is None and _saved_settings(None) is None
+
+
 def test_shuffling_permutes_only_the_rows_in_each_samples_range() -> None:
     rows = torch.arange(3 * 8, dtype=torch.float32).reshape(3, 8, 1).expand(3, 8, 12).clone()
     ranges = torch.tensor([[2, 6], [3, 4], [1, 8]])
