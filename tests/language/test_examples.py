@@ -9,7 +9,7 @@ from t2m_core.domain.goals import Goal, validate_goal
 from t2m_core.domain.propositions import Proposition
 from t2m_core.domain.skills import parse_skill_call
 from t2m_core.domain.symbolic_effects import apply_effects, precondition_problems
-from t2m_core.language.goal_cases import load_goal_cases
+from t2m_core.language.goal_cases import load_goal_cases, load_heldout_cases
 from t2m_core.language.goal_checks import reachable_alternatives
 from t2m_core.language.prompts import load_examples, load_goal_examples
 from t2m_core.tasks import list_tasks
@@ -69,7 +69,7 @@ def test_examples_never_reuse_a_task_or_evaluation_instruction_or_scene():
     asked = [(task.instruction, task.objects, {str(p) for p in task.initial_state if p.predicate in ("on", "under", "inhand")})
              for task in list_tasks()]
     asked += [(case.instruction, case.scene.objects, {str(p) for p in case.scene.initial_state if p.predicate in ("on", "under", "inhand")})
-              for case in load_goal_cases()]
+              for case in load_goal_cases() + load_heldout_cases()]
     for instruction, objects, relations in asked:
         for example in EXAMPLES + GOAL_EXAMPLES:
             assert example.instruction.strip().lower() != instruction.strip().lower()

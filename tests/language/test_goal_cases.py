@@ -6,11 +6,18 @@ from __future__ import annotations
 import pytest
 
 from t2m_core.errors import T2MError
-from t2m_core.language.goal_cases import NO_GOAL_KINDS, describe_case, initial_facts, load_goal_cases
+from t2m_core.language.goal_cases import (
+    NO_GOAL_KINDS,
+    describe_case,
+    initial_facts,
+    load_goal_cases,
+    load_heldout_cases,
+)
 from t2m_core.language.goal_judging import judge_goal, reachable_states
 from t2m_core.tasks import list_tasks
 
 CASES = load_goal_cases()
+HELDOUT = load_heldout_cases()
 
 
 def test_the_set_is_large_varied_and_apart_from_the_suite():
@@ -21,13 +28,21 @@ def test_the_set_is_large_varied_and_apart_from_the_suite():
     assert not suite & {case.instruction.lower() for case in CASES}
 
 
-def test_every_scene_samples_and_every_true_goal_is_reachable():
-    scenes = {case.scene.name: case for case in CASES}
+def test_the_heldout_set_is_apart_from_the_main_set_and_the_suite():
+    assert len(HELDOUT) >= 10 and len({case.id for case in HELDOUT}) == len(HELDOUT)
+    seen = {task.instruction.lower() for task in list_tasks()} | {case.instruction.lower() for case in CASES}
+    assert not seen & {case.instruction.lower() for case in HELDOUT}
+    assert not {case.scene.name for case in CASES} & {case.scene.name for case in HELDOUT}
+
+
+@pytest.mark.parametrize("cases", [CASES, HELDOUT], ids=["main", "heldout"])
+def test_every_scene_samples_and_every_true_goal_is_reachable(cases):
+    scenes = {case.scene.name: case for case in cases}
     states = {name: reachable_states(initial_facts(case.scene), case.scene.objects) for name, case in scenes.items()}
-    for name, case in scenes.items():
+    for case in scenes.values():
         described = describe_case(case, seed=0)
         assert described.objects == case.scene.objects and described.relationships
-    for case in CASES:
+    for case in cases:
         judgement = judge_goal(case.goal, case.goal, states[case.scene.name])
         assert judgement.strict, f"{case.id}: {case.goal} is not reachable within 10 skills"
         assert (case.goal is None) == (case.no_goal is not None)
