@@ -132,7 +132,8 @@ def unknown_thing_reason(instruction: str, objects: Sequence[str]) -> NoGoal | N
     colours = ", ".join(sorted(_box_colours()))
     return NoGoal(
         "unknown",
-        f"the instruction asks for {names}, which is no object of this world (boxes are {colours}; "
+        f"the instruction asks for {names}, which {'is no object' if len(things) == 1 else 'are no objects'} "
+        f"of this world (boxes are {colours}; "
         f"this scene has: {', '.join(objects)})",
     )
 
