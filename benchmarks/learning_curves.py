@@ -6,7 +6,9 @@
 
 Trains the models on the first N training transitions (``t2m train --train-size N``: exactly what
 ``t2m datagen --size N`` writes, since chunks are deterministic) for every N, with the same step
-budget, into ``WORK/<skill>-<N>/`` (resumable: a killed run continues where it stopped), and
+budget, into ``WORK/<skill>-<N>/`` (resumable: a killed run continues where it stopped; at the
+split's full size it is ``t2m train``'s default run, so a finished ``t2m train`` checkpoint copied
+there with its ``.training/`` states is reused), and
 measures each on the full validation split: Q precision / recall / accuracy / loss of the
 pessimistic prediction, the dynamics' median position error of the moved object (mm). A curve that
 still rises at its largest size says more data would help. Prints a table and writes JSON.
@@ -47,10 +49,12 @@ def main() -> None:
     transitions = load_split(args.data / args.skill / "validation")
     validation = SkillTensors.from_transitions(transitions)
     keep = transitions.success
+    available = json.loads((args.data / args.skill / "train" / "manifest.json").read_text())["count"]
     points = []
     for size in (int(s) for s in args.sizes.split(",")):
         checkpoint = args.work / f"{args.skill}-{size}"
-        overrides = {"train_size": size, **({"steps": args.steps} if args.steps else {})}
+        # the whole split is what `t2m train` uses by default: its checkpoint serves as this point
+        overrides = {**({"train_size": size} if size < available else {}), **({"steps": args.steps} if args.steps else {})}
         started = time.perf_counter()
         results = train_skill(args.skill, models, args.data, checkpoint, overrides)
         point: dict = {"train_size": size, "train_seconds": round(time.perf_counter() - started, 1)}
