@@ -45,6 +45,9 @@ class StageSettings(BaseModel):
     learning_rate: float = Field(gt=0, description="Adam learning rate (cosine-annealed to 0 for the Q-ensemble)")
     eval_every: int = Field(1000, gt=0, description="steps between validation evaluations and saved states")
     seed: int = Field(0, ge=0, description="torch seed of initialisation, batches and shuffles")
+    patience: int | None = Field(
+        None, gt=0, description="stop after this many evaluations without a better validation score (None: run every step)"
+    )
     train_size: int | None = Field(
         None, gt=0, description="train on the first N training transitions only (what `t2m datagen --size N` writes); None: all"
     )
@@ -60,9 +63,9 @@ class StageSettings(BaseModel):
 
 
 DEFAULT_SETTINGS: dict[str, StageSettings] = {
-    "q": StageSettings(steps=40_000, batch_size=128, learning_rate=3e-4),
+    "q": StageSettings(steps=40_000, batch_size=128, learning_rate=3e-4, patience=10),
     "policy": StageSettings(steps=20_000, batch_size=128, learning_rate=1e-4, selection_episodes=50),
-    "dynamics": StageSettings(steps=20_000, batch_size=512, learning_rate=5e-4),
+    "dynamics": StageSettings(steps=20_000, batch_size=512, learning_rate=5e-4, patience=5),
 }
 """CPU-scale defaults (docs/guide/skills.md#training-schedule)."""
 
@@ -319,9 +322,9 @@ def run_stage(
         step, best = extra["step"], extra["best"]
     elif metrics_path.exists():
         metrics_path.unlink()  # a fresh run: the old curve is not this run's
-    started = time.perf_counter()
+    started, first_step = time.perf_counter(), step
     running: dict[str, float] = {}
-    while step < settings.steps:
+    while step < settings.steps and not _stopped_early(settings, step, best["step"]):
         index = torch.randint(stage.train_size, (settings.batch_size,), generator=generator)
         for key, value in stage.step(index, generator).items():
             running[key] = running.get(key, 0.0) + value
@@ -343,8 +346,17 @@ def run_stage(
             )
             if on_progress:
                 on_progress(step, record)
-    steps_per_second = settings.steps / max(time.perf_counter() - started, 1e-9)
-    return {"best_step": best["step"], "best": best["metrics"], "steps": settings.steps, "steps_per_second": round(steps_per_second, 1)}
+    steps_per_second = (step - first_step) / max(time.perf_counter() - started, 1e-9)
+    return {
+        "best_step": best["step"], "best": best["metrics"], "steps": step, "scheduled_steps": settings.steps,
+        "steps_per_second": round(steps_per_second, 1),
+    }
+
+
+def _stopped_early(settings: StageSettings, step: int, best_step: int) -> bool:
+    """Whether ``patience`` evaluations have passed since the best one (a resumed run that had
+    stopped early stays stopped)."""
+    return settings.patience is not None and step - best_step >= settings.patience * settings.eval_every
 
 
 def _saved_settings(saved: Any) -> dict[str, Any] | None:

@@ -114,6 +114,21 @@ def test_simulated_success_selects_the_policy_over_the_ensembles_judgement(tmp_p
     assert result["best_step"] == 200 and result["best"]["simulated_success"] == 0.9
 
 
+def test_patience_stops_a_stage_that_no_longer_improves_and_a_rerun_stays_stopped(tmp_path) -> None:
+    train, validation = synthetic(2048, 0), synthetic(512, 1)
+    q_settings = StageSettings(steps=200, batch_size=128, learning_rate=3e-3, eval_every=200)
+    q_stage = QStage(train, validation, q_settings)
+    run_stage(q_stage, q_settings, tmp_path)
+    rates = iter([0.3, 0.8, 0.5, 0.4, 0.6, 0.9])  # best at the second evaluation, then two worse
+    settings = StageSettings(steps=600, batch_size=64, learning_rate=1e-3, eval_every=100, selection_episodes=5, patience=2)
+    stage = PolicyStage(train, validation, q_stage.network, settings, simulate=lambda network: next(rates))
+    result = run_stage(stage, settings, tmp_path)
+    assert result["steps"] == 400 and result["scheduled_steps"] == 600 and result["best_step"] == 200
+    assert [json.loads(line)["step"] for line in (tmp_path / "metrics-policy.jsonl").read_text().splitlines()] == [100, 200, 300, 400]
+    again = run_stage(PolicyStage(train, validation, q_stage.network, settings, simulate=lambda network: 1.0), settings, tmp_path)
+    assert again["steps"] == 400 and again["best_step"] == 200  # resumed: already stopped
+
+
 def test_policy_success_counts_the_simulated_outcomes() -> None:
     from t2m_skills_tableenv.episodes import policy_success
     from tests.core.plugin_doubles import ScriptedSimulator
