@@ -3,6 +3,7 @@
     python benchmarks/learning_curves.py --skill pick --sizes 1250,2500,5000,10000,20000
         --data datasets/tableenv --work /tmp/curves --json OUT [--models q,dynamics] [--steps 20000]
         [--plot PNG]
+    python benchmarks/learning_curves.py --combine A.json,B.json --plot PNG   (one plot of several skills)
 
 Trains the models on the first N training transitions (``t2m train --train-size N``: exactly what
 ``t2m datagen --size N`` writes, since chunks are deterministic) for every N, with the same step
@@ -24,15 +25,24 @@ from pathlib import Path
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--skill", required=True)
-    parser.add_argument("--sizes", required=True, help="comma-separated training-set sizes")
+    parser.add_argument("--skill")
+    parser.add_argument("--sizes", help="comma-separated training-set sizes")
     parser.add_argument("--data", type=Path, default=Path("datasets/tableenv"))
-    parser.add_argument("--work", type=Path, required=True, help="directory for the per-size checkpoints")
+    parser.add_argument("--work", type=Path, help="directory for the per-size checkpoints")
     parser.add_argument("--models", default="q,dynamics", help="q, dynamics (policy success needs simulation: see `t2m skills report`)")
     parser.add_argument("--steps", type=int, default=None, help="optimiser steps per model (default: the library's)")
-    parser.add_argument("--json", dest="json_out", type=Path, required=True)
+    parser.add_argument("--json", dest="json_out", type=Path)
     parser.add_argument("--plot", type=Path, default=None)
+    parser.add_argument("--combine", help="comma-separated JSON files written by this script: plot them together (no training)")
     args = parser.parse_args()
+    if args.combine:
+        if not args.plot:
+            parser.error("--combine needs --plot")
+        plot_curves(args.plot, [json.loads(Path(name).read_text()) for name in args.combine.split(",")])
+        return
+    missing = [flag for flag, value in (("--skill", args.skill), ("--sizes", args.sizes), ("--work", args.work), ("--json", args.json_out)) if not value]
+    if missing:
+        parser.error(f"missing {', '.join(missing)}")
 
     from t2m_core.atomic_files import write_json_atomic
     from t2m_core.data.generate import load_split
@@ -96,23 +106,30 @@ def _print_table(report: dict) -> None:
 
 
 def plot_curves(path: Path, reports: list[dict]) -> None:
-    """Q precision / recall and dynamics error against training-set size, one line per skill."""
+    """Q precision / recall, Q validation loss and (when measured) the dynamics error against
+    training-set size, one line per skill."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    figure, (q_axis, dynamics_axis) = plt.subplots(1, 2, figsize=(10, 4))
+    with_dynamics = any("dynamics" in p for r in reports for p in r["points"])
+    figure, axes = plt.subplots(1, 3 if with_dynamics else 2, figsize=(15 if with_dynamics else 10, 4))
     for report in reports:
-        sizes = [p["train_size"] for p in report["points"]]
-        if all("q" in p for p in report["points"]):
-            q_axis.plot(sizes, [100 * p["q"]["precision"] for p in report["points"]], "o-", label=f"{report['skill']} precision")
-            q_axis.plot(sizes, [100 * p["q"]["recall"] for p in report["points"]], "s--", label=f"{report['skill']} recall")
-        if all("dynamics" in p for p in report["points"]):
-            dynamics_axis.plot(sizes, [p["dynamics"]["moved_mm_median"] for p in report["points"]], "o-", label=report["skill"])
-    q_axis.axhline(95, color="grey", linewidth=0.8, linestyle=":", label="floor 95 %")
-    dynamics_axis.axhline(10, color="grey", linewidth=0.8, linestyle=":", label="floor 10 mm")
-    for axis, label in ((q_axis, "Q-ensemble (min of 8 > 0.5), %"), (dynamics_axis, "moved object, median error (mm)")):
+        points = [p for p in report["points"] if "q" in p]
+        sizes = [p["train_size"] for p in points]
+        line = axes[0].plot(sizes, [100 * p["q"]["precision"] for p in points], "o-", label=f"{report['skill']} precision")[0]
+        axes[0].plot(sizes, [100 * p["q"]["recall"] for p in points], "s--", color=line.get_color(), label=f"{report['skill']} recall")
+        axes[1].plot(sizes, [p["q"]["loss"] for p in points], "o-", color=line.get_color(), label=report["skill"])
+        if with_dynamics:
+            measured = [p for p in report["points"] if "dynamics" in p]
+            axes[2].plot([p["train_size"] for p in measured], [p["dynamics"]["moved_mm_median"] for p in measured], "o-", color=line.get_color(), label=report["skill"])
+    axes[0].axhline(95, color="grey", linewidth=0.8, linestyle=":", label="floor 95 %")
+    labels = ["Q-ensemble, min of 8 > 0.5 (%)", "Q-ensemble validation BCE"]
+    if with_dynamics:
+        axes[2].axhline(10, color="grey", linewidth=0.8, linestyle=":", label="floor 10 mm")
+        labels.append("moved object, median error (mm)")
+    for axis, label in zip(axes, labels):
         axis.set_xscale("log")
         axis.set_xlabel("training transitions")
         axis.set_ylabel(label)

@@ -346,11 +346,9 @@ def run_stage(
             )
             if on_progress:
                 on_progress(step, record)
-    steps_per_second = (step - first_step) / max(time.perf_counter() - started, 1e-9)
-    return {
-        "best_step": best["step"], "best": best["metrics"], "steps": step, "scheduled_steps": settings.steps,
-        "steps_per_second": round(steps_per_second, 1),
-    }
+    # a rerun of a finished stage runs no step: it has no rate to report
+    steps_per_second = round((step - first_step) / (time.perf_counter() - started), 1) if step > first_step else None
+    return {"best_step": best["step"], "best": best["metrics"], "steps": step, "scheduled_steps": settings.steps, "steps_per_second": steps_per_second}
 
 
 def _stopped_early(settings: StageSettings, step: int, best_step: int) -> bool:

@@ -92,7 +92,7 @@ def _train_with_progress(trainer: Any, skill: str, models: tuple[str, ...], data
 
         result = trainer(skill, models, data, checkpoint, overrides, on_progress=update, simulator=sim)
     for model, outcome in result.items():
-        console.print(f"{skill} {model}: best at step {outcome['best_step']}: {outcome['best']} ({outcome['steps_per_second']} steps/s)")
+        console.print(f"{skill} {model}: best at step {outcome['best_step']}: {outcome['best']} ({outcome['steps_per_second'] or '-'} steps/s)")
     return result
 
 
