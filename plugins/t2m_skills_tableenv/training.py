@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 import torch
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from torch import nn
 
 from t2m_skills_tableenv.checkpoints import load_training_state, save_training_state, save_weights, update_config
@@ -430,7 +430,7 @@ def train_skill(
     from t2m_core.data.generate import manifest_digest
     from t2m_skills_tableenv.checkpoints import load_weights
 
-    settings = {model: stage.model_copy(update=overrides or {}) for model, stage in DEFAULT_SETTINGS.items()}
+    settings = {model: _with_overrides(stage, overrides or {}) for model, stage in DEFAULT_SETTINGS.items()}
     train_dir, validation_dir = Path(data) / skill / "train", Path(data) / skill / "validation"
     train, validation = SkillTensors.load(train_dir), SkillTensors.load(validation_dir)
     digests = {"train": manifest_digest(train_dir), "validation": manifest_digest(validation_dir)}
@@ -455,6 +455,21 @@ def train_skill(
         results[model] = run_stage(stage, stage_settings, checkpoint, on_progress=report)
         record_stage(checkpoint, skill, model, stage_settings, results[model], digests)
     return results
+
+
+def _with_overrides(settings: StageSettings, overrides: dict[str, Any]) -> StageSettings:
+    """``settings`` with ``overrides`` applied and validated like the defaults.
+
+    Raises:
+        T2MError: an unknown field or a value out of its range, named with the valid ones.
+    """
+    from t2m_core.errors import T2MError
+
+    try:
+        return StageSettings.model_validate({**settings.model_dump(), **overrides})
+    except ValidationError as error:
+        problems = "; ".join(f"{'.'.join(str(part) for part in e['loc'])}: {e['msg']}" for e in error.errors())
+        raise T2MError(f"invalid training settings: {problems}", f"settings are {', '.join(StageSettings.model_fields)}") from None
 
 
 def _simulated_selection(skill: str, simulator_name: str, episodes: int) -> Callable[[GaussianPolicy], float]:

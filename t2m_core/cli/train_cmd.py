@@ -61,8 +61,6 @@ def train(
     if model != "all" and model not in MODEL_NAMES:
         raise T2MError(f"unknown model {model!r}", f"use one of: {', '.join(MODEL_NAMES)}, all")
     trainer = library_entry(library, "trainer")
-    if ensemble_batches not in (None, "shared", "bootstrap"):
-        raise T2MError(f"unknown --ensemble-batches {ensemble_batches!r}", "use shared or bootstrap")
     chosen = (
         ("steps", steps), ("eval_every", eval_every), ("train_size", train_size), ("ensemble_batches", ensemble_batches),
         ("selection_episodes", selection_episodes),

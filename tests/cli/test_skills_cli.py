@@ -71,4 +71,4 @@ def test_an_unknown_ensemble_batching_is_refused(dataset, tmp_path) -> None:
     result = runner.invoke(
         app, ["train", "--skill", "pick", "--model", "q", "--data", str(dataset), "--out", str(tmp_path), "--ensemble-batches", "bagging"]
     )
-    assert result.exit_code != 0 and "shared or bootstrap" in result.output
+    assert result.exit_code != 0 and "ensemble_batches" in result.output and "'shared' or 'bootstrap'" in result.output
