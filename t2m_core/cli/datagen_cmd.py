@@ -26,6 +26,9 @@ def datagen(
     seed: Annotated[int, typer.Option("--seed", min=0, help="Base seed of the dataset.")] = 0,
     chunk_size: Annotated[int, typer.Option("--chunk-size", min=1, help="Transitions per shard.")] = 250,
     sampler: Annotated[str, typer.Option("--sampler", help="Action sampler: screened (default), heuristic, uniform.")] = "screened",
+    actions_per_scene: Annotated[
+        int, typer.Option("--actions-per-scene", min=1, help="Actions executed from each reset scene (restored exactly between them); above 1 makes data cheaper.")
+    ] = 1,
     as_json: Annotated[bool, typer.Option("--json", help="Print the manifests as JSON on stdout.")] = False,
 ) -> None:
     """Generate (or finish generating) a split of skill data: simulated transitions of symbolically
@@ -46,7 +49,7 @@ def datagen(
     manifests = {}
     with make_executor(executor, workers=workers or (default_workers() if executor == "local" else 0), address=address) as pool:
         for name in skills:
-            job = DatasetJob(out.resolve(), name, split, size, chunk_size, seed, sampler, sim)
+            job = DatasetJob(out.resolve(), name, split, size, chunk_size, seed, sampler, sim, actions_per_scene=actions_per_scene)
             manifests[name] = _run_with_progress(job, pool, generate_dataset)
     if as_json:
         typer.echo(json.dumps(manifests, indent=2))

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import time
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -64,6 +64,9 @@ class ChunkSpec:
         size: transitions it holds.
         base_seed: the dataset's seed; splits and chunks draw independent streams from it.
         sampler: action sampler of simulated splits (a key of :data:`SAMPLERS`).
+        actions_per_scene: actions executed from each reset scene of a simulated split, each from
+            the same exact snapshot: a reset costs 2-4 executions, so more than one action per scene
+            makes data several times cheaper (docs/guide/skills.md#actions-per-scene).
     """
 
     skill: str
@@ -72,6 +75,7 @@ class ChunkSpec:
     size: int
     base_seed: int = 0
     sampler: str = "screened"
+    actions_per_scene: int = 1
 
     def __post_init__(self) -> None:
         if self.skill not in DATA_SKILLS:
@@ -80,8 +84,8 @@ class ChunkSpec:
             raise DataGenerationError(f"unknown split {self.split!r}", f"use one of: {', '.join(SPLITS)}")
         if self.sampler not in SAMPLERS:
             raise DataGenerationError(f"unknown action sampler {self.sampler!r}", f"use one of: {', '.join(SAMPLERS)}")
-        if self.size < 1 or self.index < 0 or self.base_seed < 0:
-            raise DataGenerationError(f"chunk size must be >= 1 and index, seed >= 0; got {self}")
+        if self.size < 1 or self.index < 0 or self.base_seed < 0 or self.actions_per_scene < 1:
+            raise DataGenerationError(f"chunk size and actions per scene must be >= 1 and index, seed >= 0; got {self}")
 
     @property
     def filename(self) -> str:
@@ -99,8 +103,9 @@ class ChunkSpec:
         return np.random.default_rng(np.random.SeedSequence(words))
 
     def header(self) -> dict[str, Any]:
-        """The fields that identify the chunk, as its shard header stores them."""
-        return {
+        """The fields that identify the chunk, as its shard header stores them (``actions_per_scene``
+        only when above 1: a shard without it was made with one action per scene)."""
+        header: dict[str, Any] = {
             "skill": self.skill,
             "split": self.split,
             "index": self.index,
@@ -108,6 +113,9 @@ class ChunkSpec:
             "base_seed": self.base_seed,
             "sampler": self.sampler if self.simulated else "uniform",
         }
+        if self.simulated and self.actions_per_scene > 1:
+            header["actions_per_scene"] = self.actions_per_scene
+        return header
 
 
 @dataclass
@@ -115,7 +123,7 @@ class ChunkStats:
     """What it cost to produce a chunk.
 
     Attributes:
-        draws: (state, call) draws, including discarded failures and failed resets.
+        draws: executed actions and failed resets, including discarded failures.
         discarded_failures: failures dropped by the balancing rule.
         reset_failures: draws whose scene could not be sampled or settled.
         reset_rejections: candidate seeds rejected inside accepted resets.
@@ -145,9 +153,9 @@ class ChunkStats:
 def generate_chunk(spec: ChunkSpec, simulator: Any = None) -> tuple[Transitions, ChunkStats]:
     """Generate one chunk.
 
-    Simulated splits reset ``simulator`` to a drawn (state, call) scene, draw an action with the
-    spec's sampler and execute it, keeping every success and failures only while they are under
-    60 % of the chunk (the balancing rule). The invalid split encodes analytically sampled scenes
+    Simulated splits reset ``simulator`` to a drawn (state, call) scene, then draw an action with the
+    spec's sampler and execute it, ``actions_per_scene`` times from the same snapshot, keeping every
+    success and failures only while they are under 60 % of the chunk (the balancing rule). The invalid split encodes analytically sampled scenes
     of symbolically invalid calls with uniform actions, reward 0 and ``next_observation =
     observation``.
 
@@ -167,25 +175,28 @@ def generate_chunk(spec: ChunkSpec, simulator: Any = None) -> tuple[Transitions,
     rows: list[dict[str, Any]] = []
     kept_failures = 0
     while len(rows) < spec.size:
-        stats.draws += 1
-        if stats.draws > MAX_DRAWS_PER_TRANSITION * spec.size:
-            raise DataGenerationError(
-                f"{spec.skill} {spec.split} chunk {spec.index}: {stats.draws} draws for {len(rows)} transitions "
-                f"({stats.reset_failures} failed resets, failures {dict(stats.failures)})",
-                "check the simulator with `t2m sim demo`; a skill that never succeeds cannot be balanced",
-            )
         task = draw_data_task(spec.skill, spec.simulated, rng)
         scene_seed = int(rng.integers(2**31 - 1))
-        row = _simulated_row(spec, simulator, task, scene_seed, rng, stats) if spec.simulated else _invalid_row(task, scene_seed, rng)
-        if row is None:
-            continue
-        if row["reward"] < 0.5:
-            stats.failures[row["failure_name"]] += 1
-            if spec.simulated and kept_failures >= max_failures:
-                stats.discarded_failures += 1
+        scene_rows = _simulated_rows(spec, simulator, task, scene_seed, rng, stats) if spec.simulated else iter([_invalid_row(task, scene_seed, rng)])
+        for row in scene_rows:
+            stats.draws += 1
+            if stats.draws > MAX_DRAWS_PER_TRANSITION * spec.size:
+                raise DataGenerationError(
+                    f"{spec.skill} {spec.split} chunk {spec.index}: {stats.draws} draws for {len(rows)} transitions "
+                    f"({stats.reset_failures} failed resets, failures {dict(stats.failures)})",
+                    "check the simulator with `t2m sim demo`; a skill that never succeeds cannot be balanced",
+                )
+            if row is None:
                 continue
-            kept_failures += 1
-        rows.append(row)
+            if row["reward"] < 0.5:
+                stats.failures[row["failure_name"]] += 1
+                if spec.simulated and kept_failures >= max_failures:
+                    stats.discarded_failures += 1
+                    continue
+                kept_failures += 1
+            rows.append(row)
+            if len(rows) == spec.size:
+                break
     stats.seconds = time.perf_counter() - started
     return _stack(rows), stats
 
@@ -196,22 +207,31 @@ def _action_sampler(name: str, primitive: Primitive) -> Callable[[GeometricState
     return getattr(primitive, SAMPLERS[name])
 
 
-def _simulated_row(
+def _simulated_rows(
     spec: ChunkSpec, simulator: Any, task: DataTask, scene_seed: int, rng: np.random.Generator, stats: ChunkStats
-) -> dict[str, Any] | None:
+) -> Iterator[dict[str, Any] | None]:
+    """The rows of one scene: ``None`` for a failed reset, else one row per action, each executed
+    from the reset's exact snapshot (drawn lazily: the caller stops when its chunk is full)."""
     reset_started = time.perf_counter()
     try:
         reset = simulator.reset(task, seed=scene_seed)
     except SamplingError:
+        reset = None
         stats.reset_failures += 1
-        return None
     finally:
         stats.reset_seconds += time.perf_counter() - reset_started
+    if reset is None:
+        yield None
+        return
     stats.reset_rejections += reset.rejections
-    primitive = get_primitive(spec.skill)
-    action = _action_sampler(spec.sampler, primitive)(reset.state, task.call.args, rng)
-    result = simulator.execute(spec.skill, task.call.args, action)
-    return _row(task, reset.accepted_seed, reset.observation, action, result.observation, result.success, result.truncated, result.failure)
+    sampler = _action_sampler(spec.sampler, get_primitive(spec.skill))
+    snapshot = simulator.get_state() if spec.actions_per_scene > 1 else None
+    for attempt in range(spec.actions_per_scene):
+        if attempt:
+            simulator.set_state(snapshot)
+        action = sampler(reset.state, task.call.args, rng)
+        result = simulator.execute(spec.skill, task.call.args, action)
+        yield _row(task, reset.accepted_seed, reset.observation, action, result.observation, result.success, result.truncated, result.failure)
 
 
 def _invalid_row(task: DataTask, scene_seed: int, rng: np.random.Generator) -> dict[str, Any] | None:

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from t2m_core.atomic_files import write_json_atomic
-from t2m_core.data.chunks import ChunkSpec, ChunkStats, generate_chunk
+from t2m_core.data.chunks import ChunkSpec, ChunkStats, DataGenerationError, generate_chunk
 from t2m_core.data.records import (
     FAILURE_VOCABULARY,
     SHARD_FORMAT,
@@ -59,6 +59,7 @@ class DatasetJob:
         chunk_size: transitions per chunk.
         base_seed: the dataset's seed.
         sampler: action sampler of simulated splits.
+        actions_per_scene: actions executed from each reset scene (see :class:`ChunkSpec`).
         simulator: simulator plugin name; ``simulator_options`` its options.
     """
 
@@ -71,6 +72,7 @@ class DatasetJob:
     sampler: str = "screened"
     simulator: str = "mujoco"
     simulator_options: dict[str, Any] = field(default_factory=dict)
+    actions_per_scene: int = 1
 
     @property
     def directory(self) -> Path:
@@ -88,6 +90,7 @@ class DatasetJob:
                 min(self.chunk_size, self.size - index * self.chunk_size),
                 self.base_seed,
                 self.sampler,
+                self.actions_per_scene,
             )
             for index in range(count)
         ]
@@ -136,6 +139,7 @@ def generate_dataset(
         DataGenerationError: a chunk cannot be generated (the chunks finished before are kept).
     """
     job = replace(job, out=Path(job.out).resolve())  # a worker's working directory is not the driver's
+    _require_same_dataset(job)
     executor = executor or LocalExecutor(workers)
     specs = job.chunks()
     progress = Progress(chunks_total=len(specs))
@@ -169,6 +173,33 @@ def generate_dataset(
         if on_progress:
             on_progress(progress)
     return write_manifest(job, executor.describe())
+
+
+def _require_same_dataset(job: DatasetJob) -> None:
+    """Refuse to write into a split whose manifest records other generation settings: its shards would
+    all be regenerated, losing the data already there.
+
+    Raises:
+        DataGenerationError: naming each differing setting.
+    """
+    path = job.directory / MANIFEST_NAME
+    if not path.exists():
+        return
+    try:
+        manifest = json.loads(path.read_text(encoding="utf-8"))
+    except ValueError:
+        return  # the manifest is rewritten from the shards at the end
+    wanted = {"base_seed": job.base_seed, "chunk_size": job.chunk_size}
+    if job.split != "invalid":
+        wanted |= {"sampler": job.sampler, "actions_per_scene": job.actions_per_scene,
+                   "simulator": {"name": job.simulator, "options": job.simulator_options}}
+    recorded = {"actions_per_scene": 1} | {key: manifest[key] for key in wanted if key in manifest}
+    differing = [f"{key} {recorded[key]!r} (asked: {wanted[key]!r})" for key in wanted if key in recorded and recorded[key] != wanted[key]]
+    if differing:
+        raise DataGenerationError(
+            f"{job.directory} holds a dataset made with other settings: " + ", ".join(differing),
+            "rerun with the dataset's settings to extend it, or write the new one to another --out",
+        )
 
 
 def _existing_header(job: DatasetJob, spec: ChunkSpec) -> dict[str, Any] | None:
@@ -255,6 +286,7 @@ def write_manifest(job: DatasetJob, executor: dict[str, Any] | None = None) -> d
         "base_seed": job.base_seed,
         "chunk_size": job.chunk_size,
         "sampler": job.shard_header(job.chunks()[0])["sampler"],
+        "actions_per_scene": job.actions_per_scene if job.split != "invalid" else None,
         "simulator": {"name": job.simulator, "options": job.simulator_options} if job.split != "invalid" else None,
         "failure_vocabulary": list(FAILURE_VOCABULARY),
         **_timing_summary(job),
