@@ -113,3 +113,68 @@ def test_unknown_names_are_rejected_with_the_choices() -> None:
     with pytest.raises(DataGenerationError, match="train, validation, invalid"):
         ChunkSpec("pick", "test", 0, 5)
     assert "table" in OBJECT_VOCABULARY
+
+
+class _CountingResets(ScriptedSimulator):
+    """The scripted simulator, counting resets."""
+
+    def __init__(self, success) -> None:
+        super().__init__(success)
+        self.resets = 0
+
+    def reset(self, task, *, seed):
+        self.resets += 1
+        return super().reset(task, seed=seed)
+
+
+def test_several_actions_per_scene_share_its_reset_and_keep_the_balancing() -> None:
+    simulator = _CountingResets(lambda action: action[0] > 0.0)
+    transitions, stats = generate_chunk(ChunkSpec("pick", "train", 0, 40, sampler="uniform", actions_per_scene=4), simulator)
+    assert len(transitions) == 40 and transitions.success.sum() >= 16
+    assert simulator.executions == stats.draws and simulator.resets == -(-simulator.executions // 4)
+    # consecutive rows of one scene: the same scene seed and observation, other actions
+    seeds = transitions.scene_seed
+    runs = np.split(seeds, np.flatnonzero(np.diff(seeds)) + 1)
+    assert max(len(run) for run in runs) == 4 and len(runs) < 40
+    first = len(runs[0])
+    assert first > 1
+    np.testing.assert_array_equal(transitions.observation[0], transitions.observation[first - 1])
+    assert not np.array_equal(transitions.action[0], transitions.action[1])
+
+
+def test_one_action_per_scene_is_the_default_and_leaves_the_header_unchanged() -> None:
+    assert "actions_per_scene" not in ChunkSpec("pick", "train", 0, 5).header()
+    assert ChunkSpec("pick", "train", 0, 5, actions_per_scene=3).header()["actions_per_scene"] == 3
+    assert "actions_per_scene" not in ChunkSpec("pick", "invalid", 0, 5, actions_per_scene=3).header()
+    with pytest.raises(DataGenerationError, match="actions per scene"):
+        ChunkSpec("pick", "train", 0, 5, actions_per_scene=0)
+
+
+@pytest.mark.slow
+def test_each_action_of_a_scene_runs_from_the_exact_reset_state() -> None:
+    """A later action of a scene gives what it gives after a fresh reset of that scene (to float32
+    rounding: contact solver warm starts differ in the last bits)."""
+    from t2m_core.registry import get_registry
+
+    class Recording:
+        def __init__(self, simulator) -> None:
+            self.simulator, self.resets = simulator, []
+
+        def reset(self, task, *, seed):
+            result = self.simulator.reset(task, seed=seed)
+            self.resets.append((task, seed, result.accepted_seed))
+            return result
+
+        def __getattr__(self, name):
+            return getattr(self.simulator, name)
+
+    simulator = Recording(get_registry().create("simulator", "mujoco"))
+    transitions, _ = generate_chunk(ChunkSpec("pick", "train", 0, 6, actions_per_scene=3), simulator)
+    # a scene whose first action succeeded (the box was lifted) and that has later actions
+    scenes = [(task, seed, np.flatnonzero(transitions.scene_seed == accepted)) for task, seed, accepted in simulator.resets]
+    task, seed, rows = next((t, s, r) for t, s, r in scenes if len(r) > 1 and transitions.success[r[0]])
+    row = int(rows[-1])
+    simulator.reset(task, seed=seed)
+    result = simulator.execute("pick", task.call.args, transitions.action[row])
+    np.testing.assert_allclose(np.asarray(result.observation, dtype=np.float32), transitions.next_observation[row], atol=1e-5)
+    assert bool(result.success) == bool(transitions.success[row])

@@ -80,3 +80,19 @@ def test_a_shard_round_trips_and_reads_without_t2m(tmp_path, monkeypatch) -> Non
         description = json.loads(handle.metadata()["t2m"])
     assert description["format"] == "t2m-transitions/1" and description["header"] == header
     assert header["skill"] == "pick" and header["count"] == 4
+
+
+def test_a_split_made_with_other_settings_is_refused_and_kept(tmp_path, monkeypatch) -> None:
+    from dataclasses import replace
+
+    from t2m_core.data.chunks import DataGenerationError
+
+    _use(monkeypatch, ScriptedSimulator(lambda action: action[0] > 0.0))
+    first = generate_dataset(_job(tmp_path))
+    assert first["actions_per_scene"] == 1
+    for other, named in ((replace(_job(tmp_path), actions_per_scene=4), "actions_per_scene 1"), (replace(_job(tmp_path), sampler="heuristic"), "sampler 'uniform'")):
+        with pytest.raises(DataGenerationError, match=named):
+            generate_dataset(other)
+    assert generate_dataset(replace(_job(tmp_path), size=16))["shards"][:3] == first["shards"]  # extending is fine
+    elsewhere = generate_dataset(replace(_job(tmp_path / "k4"), actions_per_scene=4))
+    assert elsewhere["actions_per_scene"] == 4 and elsewhere["count"] == 12
