@@ -3,6 +3,9 @@ in them measures the policy, not the scene (docs/guide/skills.md#evaluation-scen
 
 The argument box is drawn per episode; its rejection predicates (``free``, ``inworkspace``,
 ``beyondworkspace``, ``nonblocking``, ``inoperationalzone``, ``infront``) make the instance feasible.
+Pull and Push also hold the hook by its handle's tail half (``handlegrasp(hook)``): held at a random
+point, ahead of its centre, the hook cannot reach a box beyond the workspace with the arm inside
+its reach (measured: in 37 of 100 Pull scenes no action of 20 000 passed the reach screen).
 """
 
 from __future__ import annotations
@@ -24,10 +27,10 @@ def _scene(skill: str, box: str, target: str) -> tuple[tuple[str, ...], tuple[st
     if skill == "place":
         return ("table", "rack", box), (*RACK, "inworkspace(rack)", f"inhand({box})"), SkillCall("place", (box, target))
     if skill == "pull":
-        props = (*RACK, "inworkspace(rack)", "inhand(hook)", f"on({box}, table)", f"free({box})", f"beyondworkspace({box})", f"nonblocking({box}, rack)")
+        props = (*RACK, "inworkspace(rack)", "inhand(hook)", "handlegrasp(hook)", f"on({box}, table)", f"free({box})", f"beyondworkspace({box})", f"nonblocking({box}, rack)")
         return ("table", "rack", "hook", box), props, SkillCall("pull", (box, "hook"))
     if skill == "push":
-        props = (*RACK, "beyondworkspace(rack)", "inhand(hook)", f"on({box}, table)", f"free({box})", f"inoperationalzone({box})", f"infront({box}, rack)")
+        props = (*RACK, "beyondworkspace(rack)", "inhand(hook)", "handlegrasp(hook)", f"on({box}, table)", f"free({box})", f"inoperationalzone({box})", f"infront({box}, rack)")
         return ("table", "rack", "hook", box), props, SkillCall("push", (box, "hook", "rack"))
     raise ValueError(f"unknown skill {skill!r}")
 
