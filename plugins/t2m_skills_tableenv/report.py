@@ -87,6 +87,9 @@ def report_library(checkpoints: Path, data: Path | None, episodes: int, out: Pat
                 for split in ("train", "validation", "invalid")
                 if (Path(data) / name / split / MANIFEST_NAME).exists()
             }
+            trained_on = skill.config.get("models", {}).get("q", {}).get("data", {}).get("train_transitions")
+            if trained_on is not None:  # the checkpoint's own record beats the dataset's current size
+                entry["dataset"]["train"] = trained_on
             transitions = load_split(Path(data) / name / "validation")
             validation = SkillTensors.from_transitions(transitions)
             entry["q"] = q_metrics(skill.q_ensemble, validation)

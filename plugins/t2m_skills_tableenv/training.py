@@ -381,8 +381,9 @@ class _GeneratorModule(nn.Module):
         return None
 
 
-def record_stage(checkpoint: Path, skill: str, model: str, settings: StageSettings, result: dict[str, Any], data_digests: dict[str, str]) -> None:
-    """Write what trained the model and how well into the checkpoint's ``config.json``."""
+def record_stage(checkpoint: Path, skill: str, model: str, settings: StageSettings, result: dict[str, Any], data: dict[str, Any]) -> None:
+    """Write what trained the model and how well into the checkpoint's ``config.json``: ``data`` holds
+    the splits' manifest digests and the transitions used (``train_transitions``, ``validation_transitions``)."""
     from t2m_skills_tableenv.checkpoints import read_config
 
     config = read_config(checkpoint) if (checkpoint / "config.json").exists() else {}
@@ -391,7 +392,7 @@ def record_stage(checkpoint: Path, skill: str, model: str, settings: StageSettin
         "file": WEIGHT_FILES[model],
         "architecture": ARCHITECTURES[model],
         "training": settings.model_dump(),
-        "data": data_digests,
+        "data": data,
         "result": result,
     }
     update_config(checkpoint, skill=skill, models=models)
@@ -453,7 +454,7 @@ def train_skill(
         total = stage_settings.steps
         report = (lambda step, record, model=model, total=total: on_progress(model, step, total, record)) if on_progress else None
         results[model] = run_stage(stage, stage_settings, checkpoint, on_progress=report)
-        record_stage(checkpoint, skill, model, stage_settings, results[model], digests)
+        record_stage(checkpoint, skill, model, stage_settings, results[model], {**digests, "train_transitions": len(stage_train), "validation_transitions": len(validation)})
     return results
 
 

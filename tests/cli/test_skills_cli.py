@@ -40,6 +40,8 @@ def test_train_on_a_prefix_then_calibrate(dataset, tmp_path) -> None:
     assert trained.exit_code == 0, trained.output
     config = json.loads((out / "pick" / "config.json").read_text())
     assert {m["training"]["train_size"] for m in config["models"].values()} == {200}
+    # what trained the models: the prefix, not the split's current size
+    assert {(m["data"]["train_transitions"], m["data"]["validation_transitions"]) for m in config["models"].values()} == {(200, 200)}
     # the policy was selected in MuJoCo evaluation scenes
     policy_curve = [json.loads(line) for line in (out / "pick" / "metrics-policy.jsonl").read_text().splitlines()]
     assert len(policy_curve) == 3 and all(0.0 <= r["simulated_success"] <= 1.0 for r in policy_curve)
