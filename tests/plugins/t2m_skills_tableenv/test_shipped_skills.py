@@ -56,7 +56,7 @@ def test_policy_cem_plans_a_task_skeleton_with_the_shipped_skills(library) -> No
     assert np.all(np.isfinite(policy_first.states))
 
 
-SHIPPED_POLICY_FLOORS = {"pick": 0.6, "place": 0.65, "pull": 0.15, "push": 0.3}
+SHIPPED_POLICY_FLOORS = {"pick": 0.6, "place": 0.65, "pull": 0.6, "push": 0.5}
 """Simulated success of the shipped policies in 20 evaluation scenes, well below what the report
 measured on them over 100 (docs/guide/skills.md#the-shipped-checkpoints): a floor that catches a
 broken or mismatched checkpoint, not a quality target."""
