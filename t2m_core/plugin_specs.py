@@ -79,7 +79,8 @@ class SkillLibrarySpec(ComponentSpec):
     ``t2m skills report`` names those entry points (``"module:function"``, imported only when used):
 
     Attributes:
-        trainer: ``train(skill, models, data, checkpoint, overrides, on_progress) -> dict``.
+        trainer: ``train(skill, models, data, checkpoint, overrides, on_progress, simulator, more_train) -> dict``
+            (``more_train``: further dataset directories whose train splits are appended).
         calibrator: ``calibrate(skill, data, checkpoint) -> dict``.
         reporter: ``report(checkpoints, data, episodes, out, simulator) -> dict``.
     """

@@ -414,9 +414,13 @@ def train_skill(
     *,
     on_progress: Callable[[str, int, int, dict[str, float]], None] | None = None,
     simulator: str = "mujoco",
+    more_train: tuple[Path, ...] = (),
 ) -> dict[str, Any]:
     """Train ``models`` (in the order q, policy, dynamics) of ``skill`` from the dataset ``data``
     (``DIR`` of ``t2m datagen``) into the checkpoint directory ``checkpoint``.
+
+    ``more_train`` names further dataset directories whose ``<skill>/train`` splits are appended to
+    ``data``'s (data made with other settings or on other machines); validation stays ``data``'s.
 
     The policy is selected in episodes simulated by the simulator plugin ``simulator`` when its
     ``selection_episodes`` is positive (the default).
@@ -433,8 +437,11 @@ def train_skill(
 
     settings = {model: _with_overrides(stage, overrides or {}) for model, stage in DEFAULT_SETTINGS.items()}
     train_dir, validation_dir = Path(data) / skill / "train", Path(data) / skill / "validation"
-    train, validation = SkillTensors.load(train_dir), SkillTensors.load(validation_dir)
-    digests = {"train": manifest_digest(train_dir), "validation": manifest_digest(validation_dir)}
+    more_dirs = tuple(Path(d) / skill / "train" for d in more_train)
+    train, validation = SkillTensors.load(train_dir, *more_dirs), SkillTensors.load(validation_dir)
+    digests: dict[str, Any] = {"train": manifest_digest(train_dir), "validation": manifest_digest(validation_dir)}
+    if more_dirs:
+        digests["more_train"] = [manifest_digest(d) for d in more_dirs]
     checkpoint.mkdir(parents=True, exist_ok=True)
     results = {}
     for model in MODELS:

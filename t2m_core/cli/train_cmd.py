@@ -53,6 +53,10 @@ def train(
         typer.Option("--selection-episodes", min=0, help="Simulated episodes selecting the policy at each evaluation (0: by the Q-ensemble)."),
     ] = None,
     sim: Annotated[str, typer.Option("--sim", help="Simulator plugin of the policy-selection episodes.")] = "mujoco",
+    more_train: Annotated[
+        list[Path] | None,
+        typer.Option("--more-train", help="Another dataset directory whose train split is appended to --data's (repeatable)."),
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the results as JSON on stdout.")] = False,
 ) -> None:
     """Train a skill library's models on a dataset. Rerunning the same command after a kill resumes
@@ -68,12 +72,14 @@ def train(
     overrides = {key: value for key, value in chosen if value is not None}
     results = {}
     for name in _skills(skill):
-        results[name] = _train_with_progress(trainer, name, models, data, out / name, overrides, sim)
+        results[name] = _train_with_progress(trainer, name, models, data, out / name, overrides, sim, tuple(more_train or ()))
     if as_json:
         typer.echo(json.dumps(results, indent=2))
 
 
-def _train_with_progress(trainer: Any, skill: str, models: tuple[str, ...], data: Path, checkpoint: Path, overrides: dict[str, Any], sim: str) -> dict[str, Any]:
+def _train_with_progress(
+    trainer: Any, skill: str, models: tuple[str, ...], data: Path, checkpoint: Path, overrides: dict[str, Any], sim: str, more_train: tuple[Path, ...]
+) -> dict[str, Any]:
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
@@ -88,7 +94,8 @@ def _train_with_progress(trainer: Any, skill: str, models: tuple[str, ...], data
             shown = {k: v for k, v in record.items() if k in ("loss", "precision", "recall", "q_min_mean", "simulated_success")}
             bar.update(tasks[model], completed=step, total=total, metric=" ".join(f"{k} {v:.4g}" for k, v in shown.items()))
 
-        result = trainer(skill, models, data, checkpoint, overrides, on_progress=update, simulator=sim)
+        extra = {"more_train": more_train} if more_train else {}  # libraries without the keyword still train on one dataset
+        result = trainer(skill, models, data, checkpoint, overrides, on_progress=update, simulator=sim, **extra)
     for model, outcome in result.items():
         console.print(f"{skill} {model}: best at step {outcome['best_step']}: {outcome['best']} ({outcome['steps_per_second'] or '-'} steps/s)")
     return result

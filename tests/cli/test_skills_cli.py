@@ -74,3 +74,23 @@ def test_an_unknown_ensemble_batching_is_refused(dataset, tmp_path) -> None:
         app, ["train", "--skill", "pick", "--model", "q", "--data", str(dataset), "--out", str(tmp_path), "--ensemble-batches", "bagging"]
     )
     assert result.exit_code != 0 and "ensemble_batches" in result.output and "'shared' or 'bootstrap'" in result.output
+
+
+def test_more_train_appends_another_datasets_train_split(dataset, tmp_path, monkeypatch) -> None:
+    other = tmp_path / "other"
+    monkeypatch.setattr(generate, "_WORKER_SIMULATORS", {("scripted", "[]"): ScriptedSimulator(lambda action: action[0] > 0.0)})
+    generate_dataset(DatasetJob(other, "pick", "train", 100, 100, base_seed=9, sampler="uniform", simulator="scripted", actions_per_scene=2))
+    out = tmp_path / "checkpoints"
+    trained = runner.invoke(
+        app,
+        ["train", "--skill", "pick", "--model", "q", "--data", str(dataset), "--more-train", str(other), "--out", str(out),
+         "--steps", "20", "--eval-every", "10"],
+    )
+    assert trained.exit_code == 0, trained.output
+    data = json.loads((out / "pick" / "config.json").read_text())["models"]["q"]["data"]
+    assert data["train_transitions"] == 400 + 100 and data["validation_transitions"] == 200
+    assert data["more_train"] == [generate.manifest_digest(other / "pick" / "train")]
+    missing = runner.invoke(
+        app, ["train", "--skill", "pick", "--model", "q", "--data", str(dataset), "--more-train", str(tmp_path / "nowhere"), "--out", str(out), "--steps", "20"]
+    )
+    assert missing.exit_code != 0 and "manifest.json" in missing.output
