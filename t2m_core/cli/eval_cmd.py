@@ -8,6 +8,7 @@ from typing import Annotated
 
 import typer
 
+from t2m_core.atomic_files import ensure_writable_directory
 from t2m_core.cli.executor_flags import AddressFlag, ExecutorFlag, task_status
 from t2m_core.errors import T2MError
 
@@ -42,7 +43,7 @@ def evaluate(
         raise T2MError(f"unknown task(s) {', '.join(unknown)}", f"use task ids from `t2m tasks`: {', '.join(task_ids())}")
     episodes = grid(planner_names, task_list, _seed_indices(seeds))
     console = Console(stderr=True)
-    out.mkdir(parents=True, exist_ok=True)
+    ensure_writable_directory(out)
     columns = (TextColumn("[bold]episodes[/]"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[tasks]}"), TimeElapsedColumn())
     with (
         make_executor(executor, workers=workers or (1 if executor == "local" else 0), address=address) as pool,

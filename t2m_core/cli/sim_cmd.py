@@ -10,7 +10,7 @@ from typing import Annotated, Any
 
 import typer
 
-from t2m_core.atomic_files import write_json_atomic
+from t2m_core.atomic_files import ensure_writable_directory, write_json_atomic
 
 
 def resolve_simulator(name: str, options: dict[str, Any] | None = None) -> Any:
@@ -38,7 +38,7 @@ def demo(
     console = Console(stderr=True)
     task = load_task(task_id)
     simulator = resolve_simulator(sim)
-    out.mkdir(parents=True, exist_ok=True)
+    ensure_writable_directory(out)
     try:
         with console.status(f"{sim}: searching and replaying {task.id} seed {seed}..."):
             result = run_demo(simulator, task, seed, out)
