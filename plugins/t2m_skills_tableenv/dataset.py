@@ -53,8 +53,6 @@ class SkillTensors:
     @classmethod
     def load(cls, directory: Path, *more: Path) -> SkillTensors:
         """Load ``DIR/<skill>/<split>``, followed by the transitions of any ``more`` split directories."""
-        if not more:
-            return cls.from_transitions(load_split(directory))
         return cls.from_transitions(Transitions.concatenate([load_split(d) for d in (directory, *more)]))
 
     def head(self, count: int | None) -> SkillTensors:

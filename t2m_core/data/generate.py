@@ -95,6 +95,19 @@ class DatasetJob:
             for index in range(count)
         ]
 
+    def settings(self) -> dict[str, Any]:
+        """The generation settings that make the split one dataset, as its manifest records them
+        (sampler, actions per scene and simulator are those of simulated splits; the invalid
+        split's sampler is uniform)."""
+        simulated = self.split != "invalid"
+        return {
+            "base_seed": self.base_seed,
+            "chunk_size": self.chunk_size,
+            "sampler": self.sampler if simulated else "uniform",
+            "actions_per_scene": self.actions_per_scene if simulated else None,
+            "simulator": {"name": self.simulator, "options": self.simulator_options} if simulated else None,
+        }
+
     def shard_header(self, spec: ChunkSpec) -> dict[str, Any]:
         """What a shard of this job records about how it was made."""
         header = spec.header()
@@ -189,11 +202,10 @@ def _require_same_dataset(job: DatasetJob) -> None:
         manifest = json.loads(path.read_text(encoding="utf-8"))
     except ValueError:
         return  # the manifest is rewritten from the shards at the end
-    wanted = {"base_seed": job.base_seed, "chunk_size": job.chunk_size}
+    wanted = job.settings()
+    recorded = {key: manifest[key] for key in wanted if key in manifest}
     if job.split != "invalid":
-        wanted |= {"sampler": job.sampler, "actions_per_scene": job.actions_per_scene,
-                   "simulator": {"name": job.simulator, "options": job.simulator_options}}
-    recorded = {"actions_per_scene": 1} | {key: manifest[key] for key in wanted if key in manifest}
+        recorded.setdefault("actions_per_scene", 1)  # manifests older than the setting: one action per scene
     differing = [f"{key} {recorded[key]!r} (asked: {wanted[key]!r})" for key in wanted if key in recorded and recorded[key] != wanted[key]]
     if differing:
         raise DataGenerationError(
@@ -283,11 +295,7 @@ def write_manifest(job: DatasetJob, executor: dict[str, Any] | None = None) -> d
         "failures_seen": dict(sorted(failures.items())),
         "discarded_failures": discarded,
         "draws": draws,
-        "base_seed": job.base_seed,
-        "chunk_size": job.chunk_size,
-        "sampler": job.shard_header(job.chunks()[0])["sampler"],
-        "actions_per_scene": job.actions_per_scene if job.split != "invalid" else None,
-        "simulator": {"name": job.simulator, "options": job.simulator_options} if job.split != "invalid" else None,
+        **job.settings(),
         "failure_vocabulary": list(FAILURE_VOCABULARY),
         **_timing_summary(job),
         "executor": executor,
