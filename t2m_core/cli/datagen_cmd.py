@@ -25,17 +25,26 @@ def datagen(
     sim: Annotated[str, typer.Option("--sim", help="Simulator plugin (see `t2m list-plugins`).")] = "mujoco",
     seed: Annotated[int, typer.Option("--seed", min=0, help="Base seed of the dataset.")] = 0,
     chunk_size: Annotated[int, typer.Option("--chunk-size", min=1, help="Transitions per shard.")] = 250,
-    sampler: Annotated[str, typer.Option("--sampler", help="Action sampler: screened (default), heuristic, uniform.")] = "screened",
+    sampler: Annotated[
+        str, typer.Option("--sampler", help="Action sampler: screened (default), heuristic, uniform, or proposal (a skill library's planner proposals).")
+    ] = "screened",
     actions_per_scene: Annotated[
         int, typer.Option("--actions-per-scene", min=1, help="Actions executed from each reset scene (restored exactly between them); above 1 makes data cheaper.")
     ] = 1,
+    proposal_checkpoints: Annotated[
+        Path | None,
+        typer.Option("--proposal-checkpoints", help="With --sampler proposal: the checkpoints it proposes with (default: the library's shipped ones)."),
+    ] = None,
+    proposal_library: Annotated[str, typer.Option("--proposal-library", help="With --sampler proposal: the skill library plugin.")] = "tableenv",
     as_json: Annotated[bool, typer.Option("--json", help="Print the manifests as JSON on stdout.")] = False,
 ) -> None:
     """Generate (or finish generating) a split of skill data: simulated transitions of symbolically
     valid skills (train, validation) or unsimulated invalid ones (invalid). Rerunning the same
     command resumes: finished shards are kept. With --executor ray the chunks run on a Ray cluster,
     whose nodes must all see --out; the shards are the same bytes either way."""
+    from t2m_core.data.chunks import ProposalSource
     from t2m_core.data.generate import DatasetJob, default_workers, generate_dataset
+    from t2m_core.data.proposals import checkpoint_digest
     from t2m_core.data.scenes import DATA_SKILLS
     from t2m_core.executors import make_executor
     from t2m_core.registry import get_registry
@@ -45,14 +54,34 @@ def datagen(
         raise T2MError(f"unknown skill {skill!r}", f"use one of: {', '.join(DATA_SKILLS)}, all")
     if split != "invalid":
         sim = get_registry().get("simulator", sim).name  # an unknown name fails here, with the choices
+    if proposal_checkpoints is not None and sampler != "proposal":
+        raise T2MError("--proposal-checkpoints is for the proposal sampler", "add --sampler proposal, or drop --proposal-checkpoints")
+    proposal_directory = _proposal_directory(proposal_library, proposal_checkpoints) if sampler == "proposal" and split != "invalid" else None
     ensure_writable_directory(out)
     manifests = {}
     with make_executor(executor, workers=workers or (default_workers() if executor == "local" else 0), address=address) as pool:
         for name in skills:
-            job = DatasetJob(out.resolve(), name, split, size, chunk_size, seed, sampler, sim, actions_per_scene=actions_per_scene)
+            proposal = None
+            if proposal_directory is not None:
+                proposal = ProposalSource(proposal_library, str(proposal_directory), checkpoint_digest(proposal_directory, name))
+            job = DatasetJob(out.resolve(), name, split, size, chunk_size, seed, sampler, sim, actions_per_scene=actions_per_scene, proposal=proposal)
             manifests[name] = _run_with_progress(job, pool, generate_dataset)
     if as_json:
         typer.echo(json.dumps(manifests, indent=2))
+
+
+def _proposal_directory(library: str, checkpoints: Path | None) -> Path:
+    """The proposal sampler's checkpoints: ``checkpoints``, or the directory the library loads by
+    default (its options' ``checkpoint_directory``)."""
+    from t2m_core.registry import get_registry
+
+    if checkpoints is not None:
+        return checkpoints.resolve()
+    spec = get_registry().get("skill_library", library)
+    default = getattr(spec.options(), "checkpoint_directory", None)
+    if default is None:
+        raise T2MError(f"the skill library {library!r} names no default checkpoints", "give --proposal-checkpoints DIR")
+    return Path(default).resolve()
 
 
 def _run_with_progress(job, executor, generate) -> dict:

@@ -45,12 +45,28 @@ SAMPLERS: dict[str, str] = {
     "screened": "screened_exploration_action",
     "heuristic": "exploration_action",
     "uniform": "uniform",
+    "proposal": "proposal",
 }
-"""Action samplers of data generation -> :class:`Primitive` method (``uniform``: U[-1, 1]^4)."""
+"""Action samplers of data generation -> :class:`Primitive` method (``uniform``: U[-1, 1]^4;
+``proposal``: a skill library's proposals, :mod:`t2m_core.data.proposals`)."""
 
 
 class DataGenerationError(T2MError):
     """A chunk that cannot be generated (unknown skill or split, a simulator that never succeeds)."""
+
+
+@dataclass(frozen=True)
+class ProposalSource:
+    """The skill library a ``proposal`` sampler proposes with (see :class:`ChunkSpec`)."""
+
+    library: str
+    checkpoints: str
+    digest: str
+
+    def identity(self) -> dict[str, str]:
+        """What a shard and a manifest record: the library and its checkpoint's digest, not where
+        the checkpoint lies on this machine."""
+        return {"library": self.library, "digest": self.digest}
 
 
 @dataclass(frozen=True)
@@ -67,6 +83,10 @@ class ChunkSpec:
         actions_per_scene: actions executed from each reset scene of a simulated split, each from
             the same exact snapshot: a reset costs 2-4 executions, so more than one action per scene
             makes data several times cheaper (docs/guide/skills.md#actions-per-scene).
+        proposal: for the ``proposal`` sampler, the skill library it proposes with: ``library``
+            (plugin name), ``checkpoints`` (directory, one sub-directory per skill) and ``digest``
+            (:func:`~t2m_core.data.proposals.checkpoint_digest` of this skill's checkpoint, which
+            the chunk's content depends on; the directory does not).
     """
 
     skill: str
@@ -76,6 +96,7 @@ class ChunkSpec:
     base_seed: int = 0
     sampler: str = "screened"
     actions_per_scene: int = 1
+    proposal: ProposalSource | None = None
 
     def __post_init__(self) -> None:
         if self.skill not in DATA_SKILLS:
@@ -84,6 +105,8 @@ class ChunkSpec:
             raise DataGenerationError(f"unknown split {self.split!r}", f"use one of: {', '.join(SPLITS)}")
         if self.sampler not in SAMPLERS:
             raise DataGenerationError(f"unknown action sampler {self.sampler!r}", f"use one of: {', '.join(SAMPLERS)}")
+        if (self.sampler == "proposal") != (self.proposal is not None) and self.simulated:
+            raise DataGenerationError("the proposal sampler, and only it, needs a proposal skill library", "give --proposal-checkpoints with --sampler proposal")
         if self.size < 1 or self.index < 0 or self.base_seed < 0 or self.actions_per_scene < 1:
             raise DataGenerationError(f"chunk size and actions per scene must be >= 1 and index, seed >= 0; got {self}")
 
@@ -115,6 +138,8 @@ class ChunkSpec:
         }
         if self.simulated and self.actions_per_scene > 1:
             header["actions_per_scene"] = self.actions_per_scene
+        if self.simulated and self.proposal is not None:
+            header["proposal"] = self.proposal.identity()
         return header
 
 
@@ -207,6 +232,20 @@ def _action_sampler(name: str, primitive: Primitive) -> Callable[[GeometricState
     return getattr(primitive, SAMPLERS[name])
 
 
+def _scene_sampler(spec: ChunkSpec, task: DataTask, state: GeometricState, observation: np.ndarray) -> Callable[[np.random.Generator], np.ndarray]:
+    """The spec's action sampler bound to one reset scene (the proposal sampler computes the
+    policy's action once per scene)."""
+    primitive = get_primitive(spec.skill)
+    if spec.proposal is None:
+        sampler = _action_sampler(spec.sampler, primitive)
+        return lambda rng: sampler(state, task.call.args, rng)
+    from t2m_core.data.proposals import load_proposal_sampler
+
+    proposals = load_proposal_sampler(primitive, spec.proposal.library, spec.proposal.checkpoints, spec.proposal.digest)
+    encoded, policy_action = proposals.policy_action(observation, task.objects, task.call.args)
+    return lambda rng: proposals.draw(state, task.call.args, encoded, policy_action, rng)
+
+
 def _simulated_rows(
     spec: ChunkSpec, simulator: Any, task: DataTask, scene_seed: int, rng: np.random.Generator, stats: ChunkStats
 ) -> Iterator[dict[str, Any] | None]:
@@ -224,12 +263,12 @@ def _simulated_rows(
         yield None
         return
     stats.reset_rejections += reset.rejections
-    sampler = _action_sampler(spec.sampler, get_primitive(spec.skill))
+    sampler = _scene_sampler(spec, task, reset.state, reset.observation)
     snapshot = simulator.get_state() if spec.actions_per_scene > 1 else None
     for attempt in range(spec.actions_per_scene):
         if attempt:
             simulator.set_state(snapshot)
-        action = sampler(reset.state, task.call.args, rng)
+        action = sampler(rng)
         result = simulator.execute(spec.skill, task.call.args, action)
         yield _row(task, reset.accepted_seed, reset.observation, action, result.observation, result.success, result.truncated, result.failure)
 

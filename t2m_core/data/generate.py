@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from t2m_core.atomic_files import write_json_atomic
-from t2m_core.data.chunks import ChunkSpec, ChunkStats, DataGenerationError, generate_chunk
+from t2m_core.data.chunks import ChunkSpec, ChunkStats, DataGenerationError, ProposalSource, generate_chunk
 from t2m_core.data.records import (
     FAILURE_VOCABULARY,
     SHARD_FORMAT,
@@ -61,6 +61,7 @@ class DatasetJob:
         sampler: action sampler of simulated splits.
         actions_per_scene: actions executed from each reset scene (see :class:`ChunkSpec`).
         simulator: simulator plugin name; ``simulator_options`` its options.
+        proposal: the skill library of the ``proposal`` sampler (see :class:`ChunkSpec`).
     """
 
     out: Path
@@ -73,6 +74,7 @@ class DatasetJob:
     simulator: str = "mujoco"
     simulator_options: dict[str, Any] = field(default_factory=dict)
     actions_per_scene: int = 1
+    proposal: ProposalSource | None = None
 
     @property
     def directory(self) -> Path:
@@ -91,6 +93,7 @@ class DatasetJob:
                 self.base_seed,
                 self.sampler,
                 self.actions_per_scene,
+                self.proposal if self.split != "invalid" else None,
             )
             for index in range(count)
         ]
@@ -100,13 +103,16 @@ class DatasetJob:
         (sampler, actions per scene and simulator are those of simulated splits; the invalid
         split's sampler is uniform)."""
         simulated = self.split != "invalid"
-        return {
+        settings = {
             "base_seed": self.base_seed,
             "chunk_size": self.chunk_size,
             "sampler": self.sampler if simulated else "uniform",
             "actions_per_scene": self.actions_per_scene if simulated else None,
             "simulator": {"name": self.simulator, "options": self.simulator_options} if simulated else None,
         }
+        if simulated and self.proposal is not None:
+            settings["proposal"] = self.proposal.identity()
+        return settings
 
     def shard_header(self, spec: ChunkSpec) -> dict[str, Any]:
         """What a shard of this job records about how it was made."""
