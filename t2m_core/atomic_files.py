@@ -48,9 +48,8 @@ def ensure_writable_directory(directory: Path | str) -> Path:
     directory = Path(directory)
     try:
         directory.mkdir(parents=True, exist_ok=True)
-        probe = directory / ".t2m-write-test"
-        probe.write_text("")
-        probe.unlink()
+        with tempfile.NamedTemporaryFile(dir=directory, prefix=".t2m-write-test-"):
+            pass  # a unique name: two commands checking the same directory at once do not collide
     except OSError as error:
         raise T2MError(f"cannot write to {directory}: {error.strerror}", "choose a writable directory with --out") from None
     return directory

@@ -21,3 +21,17 @@ def test_text_creates_parent_directories_and_replaces(tmp_path):
     write_text_atomic(path, "seed: 2\n")
     assert path.read_text() == "seed: 2\n"
     assert oct(path.stat().st_mode & 0o777) == "0o644"
+
+
+def test_concurrent_writability_checks_do_not_collide(tmp_path):
+    """Two commands starting at once on the same --out both pass the check (a fixed probe name made
+    one fail with 'No such file or directory') and leave nothing behind."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from t2m_core.atomic_files import ensure_writable_directory
+
+    target = tmp_path / "out"
+    with ThreadPoolExecutor(8) as pool:
+        results = list(pool.map(lambda _: ensure_writable_directory(target), range(400)))
+    assert results == [target] * 400
+    assert list(target.iterdir()) == []
