@@ -415,12 +415,18 @@ def train_skill(
     on_progress: Callable[[str, int, int, dict[str, float]], None] | None = None,
     simulator: str = "mujoco",
     more_train: tuple[Path, ...] = (),
+    init_from: Path | None = None,
 ) -> dict[str, Any]:
     """Train ``models`` (in the order q, policy, dynamics) of ``skill`` from the dataset ``data``
     (``DIR`` of ``t2m datagen``) into the checkpoint directory ``checkpoint``.
 
     ``more_train`` names further dataset directories whose ``<skill>/train`` splits are appended to
     ``data``'s (data made with other settings or on other machines); validation stays ``data``'s.
+
+    ``init_from`` names a checkpoints directory (one sub-directory per skill) whose weights start
+    each trained model instead of a fresh initialisation: fine-tuning on new data, such as the
+    planner's own proposals (docs/guide/skills.md#proposal-data), when the data that trained those
+    weights is not at hand. The checkpoint records the starting weights' digest.
 
     The policy is selected in episodes simulated by the simulator plugin ``simulator`` when its
     ``selection_episodes`` is positive (the default).
@@ -442,6 +448,10 @@ def train_skill(
     digests: dict[str, Any] = {"train": manifest_digest(train_dir), "validation": manifest_digest(validation_dir)}
     if more_dirs:
         digests["more_train"] = [manifest_digest(d) for d in more_dirs]
+    if init_from is not None:
+        from t2m_core.data.proposals import checkpoint_digest
+
+        digests["init_from"] = checkpoint_digest(init_from, skill)
     checkpoint.mkdir(parents=True, exist_ok=True)
     results = {}
     for model in MODELS:
@@ -458,6 +468,8 @@ def train_skill(
             stage = PolicyStage(stage_train, validation, q_ensemble, stage_settings, simulate)
         else:
             stage = DynamicsStage(stage_train, validation, stage_settings)
+        if init_from is not None:
+            load_weights(Path(init_from) / skill / WEIGHT_FILES[model], stage.network)
         total = stage_settings.steps
         report = (lambda step, record, model=model, total=total: on_progress(model, step, total, record)) if on_progress else None
         results[model] = run_stage(stage, stage_settings, checkpoint, on_progress=report)

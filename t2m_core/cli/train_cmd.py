@@ -42,6 +42,7 @@ def train(
     library: Annotated[str, typer.Option("--library", help="Skill library plugin.")] = "tableenv",
     steps: Annotated[int | None, typer.Option("--steps", min=1, help="Optimiser steps per model (default: the library's).")] = None,
     eval_every: Annotated[int | None, typer.Option("--eval-every", min=1, help="Steps between validation evaluations.")] = None,
+    learning_rate: Annotated[float | None, typer.Option("--learning-rate", min=0.0, help="Adam learning rate of every trained model (default: the library's).")] = None,
     train_size: Annotated[
         int | None, typer.Option("--train-size", min=1, help="Train on the first N training transitions only (learning curves).")
     ] = None,
@@ -57,6 +58,10 @@ def train(
         list[Path] | None,
         typer.Option("--more-train", help="Another dataset directory whose train split is appended to --data's (repeatable)."),
     ] = None,
+    init_from: Annotated[
+        Path | None,
+        typer.Option("--init-from", help="Checkpoints directory whose weights start training (fine-tuning) instead of a fresh initialisation."),
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the results as JSON on stdout.")] = False,
 ) -> None:
     """Train a skill library's models on a dataset. Rerunning the same command after a kill resumes
@@ -66,19 +71,20 @@ def train(
         raise T2MError(f"unknown model {model!r}", f"use one of: {', '.join(MODEL_NAMES)}, all")
     trainer = library_entry(library, "trainer")
     chosen = (
-        ("steps", steps), ("eval_every", eval_every), ("train_size", train_size), ("ensemble_batches", ensemble_batches),
+        ("steps", steps), ("eval_every", eval_every), ("learning_rate", learning_rate), ("train_size", train_size), ("ensemble_batches", ensemble_batches),
         ("selection_episodes", selection_episodes),
     )
     overrides = {key: value for key, value in chosen if value is not None}
     results = {}
     for name in _skills(skill):
-        results[name] = _train_with_progress(trainer, name, models, data, out / name, overrides, sim, tuple(more_train or ()))
+        results[name] = _train_with_progress(trainer, name, models, data, out / name, overrides, sim, tuple(more_train or ()), init_from)
     if as_json:
         typer.echo(json.dumps(results, indent=2))
 
 
 def _train_with_progress(
-    trainer: Any, skill: str, models: tuple[str, ...], data: Path, checkpoint: Path, overrides: dict[str, Any], sim: str, more_train: tuple[Path, ...]
+    trainer: Any, skill: str, models: tuple[str, ...], data: Path, checkpoint: Path, overrides: dict[str, Any], sim: str, more_train: tuple[Path, ...],
+    init_from: Path | None = None,
 ) -> dict[str, Any]:
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
@@ -94,7 +100,10 @@ def _train_with_progress(
             shown = {k: v for k, v in record.items() if k in ("loss", "precision", "recall", "q_min_mean", "simulated_success")}
             bar.update(tasks[model], completed=step, total=total, metric=" ".join(f"{k} {v:.4g}" for k, v in shown.items()))
 
-        extra = {"more_train": more_train} if more_train else {}  # libraries without the keyword still train on one dataset
+        # libraries without these keywords still train on one dataset from scratch
+        extra: dict[str, Any] = {"more_train": more_train} if more_train else {}
+        if init_from is not None:
+            extra["init_from"] = init_from
         result = trainer(skill, models, data, checkpoint, overrides, on_progress=update, simulator=sim, **extra)
     for model, outcome in result.items():
         console.print(f"{skill} {model}: best at step {outcome['best_step']}: {outcome['best']} ({outcome['steps_per_second'] or '-'} steps/s)")

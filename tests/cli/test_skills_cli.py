@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
@@ -94,3 +95,29 @@ def test_more_train_appends_another_datasets_train_split(dataset, tmp_path, monk
         app, ["train", "--skill", "pick", "--model", "q", "--data", str(dataset), "--more-train", str(tmp_path / "nowhere"), "--out", str(out), "--steps", "20"]
     )
     assert missing.exit_code != 0 and "manifest.json" in missing.output
+
+
+def test_init_from_starts_training_from_another_checkpoints_weights(dataset, tmp_path) -> None:
+    from safetensors.numpy import load_file
+
+    from t2m_core.data.proposals import checkpoint_digest
+
+    base = tmp_path / "base"
+    common = ["--skill", "pick", "--model", "q", "--data", str(dataset), "--steps", "1", "--eval-every", "1"]
+    assert runner.invoke(app, ["train", *common, "--out", str(base)]).exit_code == 0
+    # one step at a learning rate that moves nothing measurable: the weights are the start's
+    tuned, fresh = tmp_path / "tuned", tmp_path / "fresh"
+    result = runner.invoke(app, ["train", *common, "--init-from", str(base), "--learning-rate", "1e-12", "--out", str(tuned)])
+    assert result.exit_code == 0, result.output
+    assert runner.invoke(app, ["train", *common, "--learning-rate", "1e-12", "--out", str(fresh)]).exit_code == 0
+    start, after = load_file(base / "pick" / "q_ensemble.safetensors"), load_file(tuned / "pick" / "q_ensemble.safetensors")
+    unstarted = load_file(fresh / "pick" / "q_ensemble.safetensors")
+    assert start.keys() == after.keys()
+    assert all(np.allclose(start[k], after[k], atol=1e-8) for k in start)
+    # without --init-from the same schedule ends elsewhere: one Adam step of 3e-4 separates them
+    assert any(np.abs(start[k] - unstarted[k]).max() > 1e-4 for k in start)
+    config = json.loads((tuned / "pick" / "config.json").read_text())["models"]["q"]
+    assert config["data"]["init_from"] == checkpoint_digest(base, "pick")
+    assert config["training"]["learning_rate"] == 1e-12
+    missing = runner.invoke(app, ["train", *common, "--init-from", str(tmp_path / "nowhere"), "--out", str(tmp_path / "x")])
+    assert missing.exit_code != 0 and "no pick checkpoint" in missing.output
