@@ -1,7 +1,7 @@
 """Feasibility planning against the physics: each task's reference skeleton executed closed loop.
 
     python benchmarks/stap_quality.py --json OUT [--planners policy-cem,policy,random-cem] [--tasks all]
-        [--seeds 0-9] [--population N]
+        [--seeds 0-9] [--population N] [--checkpoints DIR]
 
 For every planner, task and seed: reset MuJoCo to the task's scene (base seed = index × 1000), plan
 the task's reference skeleton, execute it closed loop (re-planning the remaining skills after every
@@ -26,6 +26,7 @@ def main() -> None:
     parser.add_argument("--seeds", default="0-9")
     parser.add_argument("--population", type=int, default=None, help="override the CEM/shooting population")
     parser.add_argument("--sim", default="mujoco")
+    parser.add_argument("--checkpoints", default=None, help="skill checkpoints directory (default: the shipped ones)")
     parser.add_argument("--plot", default=None, help="write a reliability plot (PNG) of predicted p_success against success")
     args = parser.parse_args()
 
@@ -41,8 +42,8 @@ def main() -> None:
     low, _, high = args.seeds.partition("-")
     seeds = range(int(low), int(high or low) + 1)
     simulator = registry.create("simulator", args.sim)
-    skills = registry.create("skill_library", "tableenv")
-    report: dict = {"simulator": args.sim, "planners": {}}
+    skills = registry.create("skill_library", "tableenv", {"checkpoints": args.checkpoints} if args.checkpoints else {})
+    report: dict = {"simulator": args.sim, "checkpoints": args.checkpoints or "shipped", "planners": {}}
     for planner_name in args.planners.split(","):
         options = {"population": args.population} if args.population and planner_name != "policy" else {}
         planner = registry.create("feasibility_planner", planner_name, options)
