@@ -36,15 +36,20 @@ def datagen(
         typer.Option("--proposal-checkpoints", help="With --sampler proposal: the checkpoints it proposes with (default: the library's shipped ones)."),
     ] = None,
     proposal_library: Annotated[str, typer.Option("--proposal-library", help="With --sampler proposal: the skill library plugin.")] = "tableenv",
+    scenes: Annotated[
+        str,
+        typer.Option("--scenes", help="Where transitions start: data (enumerated symbolic states, default) or tasks (states reached along "
+                     "the task suite's reference skeletons; needs --sampler proposal)."),
+    ] = "data",
     as_json: Annotated[bool, typer.Option("--json", help="Print the manifests as JSON on stdout.")] = False,
 ) -> None:
     """Generate (or finish generating) a split of skill data: simulated transitions of symbolically
     valid skills (train, validation) or unsimulated invalid ones (invalid). Rerunning the same
     command resumes: finished shards are kept. With --executor ray the chunks run on a Ray cluster,
     whose nodes must all see --out; the shards are the same bytes either way."""
-    from t2m_core.data.chunks import ProposalSource
+    from t2m_core.data.chunks import SCENES, ProposalSource
     from t2m_core.data.generate import DatasetJob, default_workers, generate_dataset
-    from t2m_core.data.proposals import checkpoint_digest
+    from t2m_core.data.proposals import checkpoint_digest, library_digest
     from t2m_core.data.scenes import DATA_SKILLS
     from t2m_core.executors import make_executor
     from t2m_core.registry import get_registry
@@ -54,6 +59,10 @@ def datagen(
         raise T2MError(f"unknown skill {skill!r}", f"use one of: {', '.join(DATA_SKILLS)}, all")
     if split != "invalid":
         sim = get_registry().get("simulator", sim).name  # an unknown name fails here, with the choices
+    if scenes not in SCENES:
+        raise T2MError(f"unknown scene source {scenes!r}", f"use one of: {', '.join(SCENES)}")
+    if scenes == "tasks" and sampler != "proposal":
+        raise T2MError("--scenes tasks advances along the skeletons with a skill library's proposals", "add --sampler proposal")
     if proposal_checkpoints is not None and sampler != "proposal":
         raise T2MError("--proposal-checkpoints is for the proposal sampler", "add --sampler proposal, or drop --proposal-checkpoints")
     proposal_directory = _proposal_directory(proposal_library, proposal_checkpoints) if sampler == "proposal" and split != "invalid" else None
@@ -63,8 +72,10 @@ def datagen(
         for name in skills:
             proposal = None
             if proposal_directory is not None:
-                proposal = ProposalSource(proposal_library, str(proposal_directory), checkpoint_digest(proposal_directory, name))
-            job = DatasetJob(out.resolve(), name, split, size, chunk_size, seed, sampler, sim, actions_per_scene=actions_per_scene, proposal=proposal)
+                digest = library_digest(proposal_directory, DATA_SKILLS) if scenes == "tasks" else checkpoint_digest(proposal_directory, name)
+                proposal = ProposalSource(proposal_library, str(proposal_directory), digest)
+            job = DatasetJob(out.resolve(), name, split, size, chunk_size, seed, sampler, sim, actions_per_scene=actions_per_scene, proposal=proposal,
+                             scenes=scenes)
             manifests[name] = _run_with_progress(job, pool, generate_dataset)
     if as_json:
         typer.echo(json.dumps(manifests, indent=2))

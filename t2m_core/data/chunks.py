@@ -26,6 +26,7 @@ from t2m_core.data.records import (
     failure_code,
     name_indices,
 )
+from t2m_core.data.rollouts import task_rollout_rows
 from t2m_core.data.scenes import DATA_SKILLS, DataTask, draw_data_task
 from t2m_core.domain.geometry import quat_multiply, rotate, yaw_to_quat
 from t2m_core.domain.observation import MAX_OBJECTS, argument_first_order, encode_observation
@@ -49,6 +50,10 @@ SAMPLERS: dict[str, str] = {
 }
 """Action samplers of data generation -> :class:`Primitive` method (``uniform``: U[-1, 1]^4;
 ``proposal``: a skill library's proposals, :mod:`t2m_core.data.proposals`)."""
+SCENES: tuple[str, ...] = ("data", "tasks")
+"""Where simulated transitions start: ``data``, the enumerated symbolic states with distractors
+(:mod:`t2m_core.data.scenes`); ``tasks``, states reached along rollouts of the task suite's
+reference skeletons (:mod:`t2m_core.data.rollouts`, proposal sampler only)."""
 
 
 class DataGenerationError(T2MError):
@@ -86,7 +91,9 @@ class ChunkSpec:
         proposal: for the ``proposal`` sampler, the skill library it proposes with: ``library``
             (plugin name), ``checkpoints`` (directory, one sub-directory per skill) and ``digest``
             (:func:`~t2m_core.data.proposals.checkpoint_digest` of this skill's checkpoint, which
-            the chunk's content depends on; the directory does not).
+            the chunk's content depends on; the directory does not; with task scenes,
+            :func:`~t2m_core.data.proposals.library_digest` of every skill's).
+        scenes: where simulated transitions start (a name of :data:`SCENES`).
     """
 
     skill: str
@@ -97,6 +104,7 @@ class ChunkSpec:
     sampler: str = "screened"
     actions_per_scene: int = 1
     proposal: ProposalSource | None = None
+    scenes: str = "data"
 
     def __post_init__(self) -> None:
         if self.skill not in DATA_SKILLS:
@@ -107,6 +115,11 @@ class ChunkSpec:
             raise DataGenerationError(f"unknown action sampler {self.sampler!r}", f"use one of: {', '.join(SAMPLERS)}")
         if (self.sampler == "proposal") != (self.proposal is not None) and self.simulated:
             raise DataGenerationError("the proposal sampler, and only it, needs a proposal skill library", "give --proposal-checkpoints with --sampler proposal")
+        if self.scenes not in SCENES:
+            raise DataGenerationError(f"unknown scene source {self.scenes!r}", f"use one of: {', '.join(SCENES)}")
+        if self.scenes == "tasks" and (self.sampler != "proposal" or not self.simulated):
+            raise DataGenerationError("task-rollout scenes need the proposal sampler (it advances along the skeletons) and a simulated split",
+                                      "add --sampler proposal, or drop --scenes tasks")
         if self.size < 1 or self.index < 0 or self.base_seed < 0 or self.actions_per_scene < 1:
             raise DataGenerationError(f"chunk size and actions per scene must be >= 1 and index, seed >= 0; got {self}")
 
@@ -140,6 +153,8 @@ class ChunkSpec:
             header["actions_per_scene"] = self.actions_per_scene
         if self.simulated and self.proposal is not None:
             header["proposal"] = self.proposal.identity()
+        if self.scenes != "data":
+            header["scenes"] = self.scenes
         return header
 
 
@@ -200,9 +215,12 @@ def generate_chunk(spec: ChunkSpec, simulator: Any = None) -> tuple[Transitions,
     rows: list[dict[str, Any]] = []
     kept_failures = 0
     while len(rows) < spec.size:
-        task = draw_data_task(spec.skill, spec.simulated, rng)
-        scene_seed = int(rng.integers(2**31 - 1))
-        scene_rows = _simulated_rows(spec, simulator, task, scene_seed, rng, stats) if spec.simulated else iter([_invalid_row(task, scene_seed, rng)])
+        if spec.scenes == "tasks":
+            scene_rows = task_rollout_rows(spec, simulator, rng, stats, DATA_SKILLS, _row)
+        else:
+            task = draw_data_task(spec.skill, spec.simulated, rng)
+            scene_seed = int(rng.integers(2**31 - 1))
+            scene_rows = _simulated_rows(spec, simulator, task, scene_seed, rng, stats) if spec.simulated else iter([_invalid_row(task, scene_seed, rng)])
         for row in scene_rows:
             stats.draws += 1
             if stats.draws > MAX_DRAWS_PER_TRANSITION * spec.size:
@@ -270,7 +288,8 @@ def _simulated_rows(
             simulator.set_state(snapshot)
         action = sampler(rng)
         result = simulator.execute(spec.skill, task.call.args, action)
-        yield _row(task, reset.accepted_seed, reset.observation, action, result.observation, result.success, result.truncated, result.failure)
+        yield _row(task.objects, task.call.args, task.symbolic_state, reset.accepted_seed, reset.observation, action, result.observation,
+                   result.success, result.truncated, result.failure)
 
 
 def _invalid_row(task: DataTask, scene_seed: int, rng: np.random.Generator) -> dict[str, Any] | None:
@@ -283,7 +302,8 @@ def _invalid_row(task: DataTask, scene_seed: int, rng: np.random.Generator) -> d
     state = _at_robot_pose(sampled.state, sampled.robot_pose.position, sampled.robot_pose.yaw)
     observation = encode_observation(state, task.objects)
     action = rng.uniform(-1.0, 1.0, 4)
-    return _row(task, sampled.accepted_seed, observation, action, observation, False, False, INVALID_GROUNDING)
+    return _row(task.objects, task.call.args, task.symbolic_state, sampled.accepted_seed, observation, action, observation, False, False,
+                INVALID_GROUNDING)
 
 
 def _at_robot_pose(state: GeometricState, ee_position: np.ndarray, ee_yaw: float) -> GeometricState:
@@ -299,7 +319,9 @@ def _at_robot_pose(state: GeometricState, ee_position: np.ndarray, ee_yaw: float
 
 
 def _row(
-    task: DataTask,
+    objects: tuple[str, ...],
+    arguments: tuple[str, ...],
+    symbolic_state: int,
     scene_seed: int,
     observation: np.ndarray,
     action: np.ndarray,
@@ -308,7 +330,7 @@ def _row(
     truncated: bool,
     failure: str | None,
 ) -> dict[str, Any]:
-    order = argument_first_order(task.objects, task.call.args)
+    order = argument_first_order(objects, arguments)
     return {
         "observation": np.asarray(observation, dtype=np.float32),
         "action": np.asarray(action, dtype=np.float32),
@@ -318,11 +340,11 @@ def _row(
         "truncated": bool(truncated),
         "failure": failure_code(failure),
         "failure_name": failure,
-        "arguments": name_indices(task.call.args, MAX_ARGUMENTS),
-        "present": name_indices(task.objects, MAX_OBJECTS),
+        "arguments": name_indices(arguments, MAX_ARGUMENTS),
+        "present": name_indices(objects, MAX_OBJECTS),
         "row_order": order.order.astype(np.int8),
         "shuffle_range": np.array([order.shuffle_start, order.shuffle_stop], dtype=np.int8),
-        "symbolic_state": task.symbolic_state,
+        "symbolic_state": symbolic_state,
         "scene_seed": scene_seed,
     }
 

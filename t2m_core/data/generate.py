@@ -62,6 +62,7 @@ class DatasetJob:
         actions_per_scene: actions executed from each reset scene (see :class:`ChunkSpec`).
         simulator: simulator plugin name; ``simulator_options`` its options.
         proposal: the skill library of the ``proposal`` sampler (see :class:`ChunkSpec`).
+        scenes: where simulated transitions start (see :class:`ChunkSpec`).
     """
 
     out: Path
@@ -75,6 +76,7 @@ class DatasetJob:
     simulator_options: dict[str, Any] = field(default_factory=dict)
     actions_per_scene: int = 1
     proposal: ProposalSource | None = None
+    scenes: str = "data"
 
     @property
     def directory(self) -> Path:
@@ -94,6 +96,7 @@ class DatasetJob:
                 self.sampler,
                 self.actions_per_scene,
                 self.proposal if self.split != "invalid" else None,
+                self.scenes if self.split != "invalid" else "data",
             )
             for index in range(count)
         ]
@@ -109,6 +112,7 @@ class DatasetJob:
             "sampler": self.sampler if simulated else "uniform",
             "actions_per_scene": self.actions_per_scene if simulated else None,
             "simulator": {"name": self.simulator, "options": self.simulator_options} if simulated else None,
+            "scenes": self.scenes if simulated else "data",
         }
         if simulated and self.proposal is not None:
             settings["proposal"] = self.proposal.identity()
@@ -212,6 +216,7 @@ def _require_same_dataset(job: DatasetJob) -> None:
     recorded = {key: manifest[key] for key in wanted if key in manifest}
     if job.split != "invalid":
         recorded.setdefault("actions_per_scene", 1)  # manifests older than the setting: one action per scene
+    recorded.setdefault("scenes", "data")  # manifests older than task rollouts
     differing = [f"{key} {recorded[key]!r} (asked: {wanted[key]!r})" for key in wanted if key in recorded and recorded[key] != wanted[key]]
     if differing:
         raise DataGenerationError(
@@ -232,6 +237,8 @@ def _existing_header(job: DatasetJob, spec: ChunkSpec) -> dict[str, Any] | None:
         return None
     expected = job.shard_header(spec)
     if any(header.get(key) != value for key, value in expected.items()) or header.get("count") != spec.size:
+        return None
+    if header.get("scenes", "data") != spec.scenes:
         return None
     return header
 

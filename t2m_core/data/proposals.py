@@ -21,6 +21,7 @@ digest (:func:`checkpoint_digest`); chunks stay pure functions of their spec and
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -87,19 +88,37 @@ class ProposalSampler:
             return self.primitive.screened_exploration_action(state, arguments, rng)
         if mode == "policy":
             return np.clip(policy_action + rng.normal(0.0, PROPOSAL_NOISE, policy_action.shape), -1.0, 1.0)
+        return self.optimum(skill_state_, policy_action, rng)
+
+    def optimum(self, skill_state_: np.ndarray, policy_action: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """Of :data:`OPTIMUM_CANDIDATES` noisy policy actions ``(4,)``, the one with the highest
+        min-of-ensemble Q (a one-step stand-in for where the planner's optimiser goes)."""
         candidates = np.clip(policy_action + rng.normal(0.0, PROPOSAL_NOISE, (OPTIMUM_CANDIDATES, policy_action.size)), -1.0, 1.0)
         states = np.broadcast_to(skill_state_, (OPTIMUM_CANDIDATES, skill_state_.size))
         values = np.asarray(self.skill.q_values(states, candidates.astype(np.float32))).min(axis=1)
         return candidates[int(np.argmax(values))]
 
 
+def library_digest(checkpoints: Path | str, skills: tuple[str, ...]) -> str:
+    """sha256 over the :func:`checkpoint_digest` of each of ``skills`` (in that order): what a task
+    rollout depends on, since it advances with every skill of a skeleton.
+
+    Raises:
+        ProposalError: a skill has no checkpoint in ``checkpoints``.
+    """
+    digest = hashlib.sha256()
+    for skill in skills:
+        digest.update(skill.encode() + b"\0" + checkpoint_digest(checkpoints, skill).encode())
+    return digest.hexdigest()
+
+
 _WORKER_LIBRARIES: dict[tuple[str, str, str], dict[str, Any]] = {}
 
 
-def load_proposal_sampler(primitive: Primitive, library: str, checkpoints: Path | str, digest: str) -> ProposalSampler:
-    """The sampler for ``primitive`` with skill library ``library`` loaded from ``checkpoints`` (once per
-    process, after checking that its checkpoint still has ``digest``). The library's options must
-    take ``checkpoints``, as the ``tableenv`` library's do.
+def load_proposal_library(library: str, checkpoints: Path | str, digest: str, found: Callable[[], str], what: str) -> dict[str, Any]:
+    """Skill library ``library`` loaded from ``checkpoints`` (once per process, after checking that
+    ``found()`` still equals the recorded ``digest``; ``what`` names the checkpoint in the error).
+    The library's options must take ``checkpoints``, as the ``tableenv`` library's do.
 
     Raises:
         ProposalError: the checkpoint changed since the dataset was started.
@@ -107,13 +126,24 @@ def load_proposal_sampler(primitive: Primitive, library: str, checkpoints: Path 
     key = (library, str(Path(checkpoints).resolve()), digest)
     skills = _WORKER_LIBRARIES.get(key)
     if skills is None:
-        found = checkpoint_digest(checkpoints, primitive.name)
-        if found != digest:
+        current = found()
+        if current != digest:
             raise ProposalError(
-                f"the {primitive.name} checkpoint in {checkpoints} changed since this dataset was started (digest {found[:12]}, recorded {digest[:12]})",
+                f"the {what} in {checkpoints} changed since this dataset was started (digest {current[:12]}, recorded {digest[:12]})",
                 "extend the dataset with the checkpoint it was made with, or write the new proposals to another --out",
             )
         from t2m_core.registry import get_registry
 
         skills = _WORKER_LIBRARIES[key] = get_registry().create("skill_library", library, {"checkpoints": Path(checkpoints)})
+    return skills
+
+
+def load_proposal_sampler(primitive: Primitive, library: str, checkpoints: Path | str, digest: str) -> ProposalSampler:
+    """The sampler for ``primitive`` with skill library ``library`` loaded from ``checkpoints``
+    (:func:`load_proposal_library`; ``digest``: the :func:`checkpoint_digest` of its skill).
+
+    Raises:
+        ProposalError: the checkpoint changed since the dataset was started.
+    """
+    skills = load_proposal_library(library, checkpoints, digest, lambda: checkpoint_digest(checkpoints, primitive.name), f"{primitive.name} checkpoint")
     return ProposalSampler(primitive, skills[primitive.name])

@@ -1,0 +1,116 @@
+"""Proposal data along rollouts of the task suite's reference skeletons
+(docs/guide/skills.md#task-rollouts).
+
+The data scenes of :mod:`t2m_core.data.scenes` place every object by the domain's sampler. A plan
+does not leave the world like that: the second box a plan puts on the rack meets the first where
+the first skill put it, and that is where the planner's proposals for the second fail. A task
+rollout resets the simulator to a task of the suite at a seed far from the evaluation seeds, walks
+the task's reference skeleton and, before every call of the chunk's skill, executes proposals
+(:class:`~t2m_core.data.proposals.ProposalSampler`) from the exact snapshot of the reached state. It
+then advances with the best-valued of the policy's noisy actions (a one-step stand-in for the
+planner), retrying a few draws, and ends the rollout at a call it cannot advance.
+
+A rollout depends on every skill of its skeleton, so its chunks record the digest of the whole
+library (:func:`~t2m_core.data.proposals.library_digest`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from functools import lru_cache
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from t2m_core.data.proposals import ProposalSampler, library_digest, load_proposal_library
+from t2m_core.domain.primitives import get_primitive
+from t2m_core.domain.sampling import SamplingError
+
+if TYPE_CHECKING:
+    from t2m_core.data.chunks import ChunkSpec, ChunkStats
+    from t2m_core.tasks.model import Task
+
+TASK_SEED_FLOOR = 10_000_000
+"""Rollout scenes use base seeds from here up; evaluation episodes use seed index × 1 000 plus the
+reset's rejections, far below."""
+ADVANCE_ATTEMPTS = 4
+"""Best-valued draws tried, each from the reached state's snapshot, before a rollout ends."""
+NOT_ENUMERATED = -1
+"""The ``symbolic_state`` column of a rollout row: its state is reached, not one of the enumerated
+data states."""
+
+RowMaker = Callable[..., dict[str, Any]]
+
+
+@lru_cache(maxsize=8)
+def rollout_tasks(skill: str) -> tuple[Task, ...]:
+    """The shipped tasks whose reference skeleton calls ``skill``, in id order."""
+    from t2m_core.tasks import list_tasks
+
+    return tuple(task for task in list_tasks() if any(call.name == skill for call in task.reference_skeleton))
+
+
+def rollout_library(spec: ChunkSpec, skills: tuple[str, ...]) -> dict[str, Any]:
+    """The proposing skill library of a rollout chunk, checked against the digest it records."""
+    source = spec.proposal
+    assert source is not None  # ChunkSpec refuses task scenes without a proposal library
+    return load_proposal_library(source.library, source.checkpoints, source.digest, lambda: library_digest(source.checkpoints, skills), "skill library")
+
+
+def task_rollout_rows(
+    spec: ChunkSpec, simulator: Any, rng: np.random.Generator, stats: ChunkStats, skills: tuple[str, ...], make_row: RowMaker
+) -> Iterator[dict[str, Any] | None]:
+    """The rows of one rollout (lazily: the caller stops when its chunk is full): ``None`` for a
+    failed reset, else one row per proposal executed for a call of ``spec.skill``.
+
+    Args:
+        spec: the chunk (its skill, actions per scene and proposal library).
+        simulator: a :class:`t2m_core.protocols.Simulator`.
+        rng: the chunk's generator (the task, the scene seed and every draw come from it).
+        stats: the chunk's counters (failed resets).
+        skills: every learned skill, in the order :func:`library_digest` covers them.
+        make_row: builds a row from ``(objects, arguments, symbolic_state, scene_seed, observation,
+            action, next_observation, success, truncated, failure)``.
+    """
+    tasks = rollout_tasks(spec.skill)
+    task = tasks[int(rng.integers(len(tasks)))]
+    scene_seed = int(rng.integers(TASK_SEED_FLOOR, 2**31 - 1))
+    try:
+        reset = simulator.reset(task, seed=scene_seed)
+    except SamplingError:
+        stats.reset_failures += 1
+        yield None
+        return
+    stats.reset_rejections += reset.rejections
+    library = rollout_library(spec, skills)
+    objects = tuple(reset.state.object_names)
+    skeleton = task.reference_skeleton
+    last = max(i for i, call in enumerate(skeleton) if call.name == spec.skill)
+    for index, call in enumerate(skeleton[: last + 1]):
+        sampler = ProposalSampler(get_primitive(call.name), library[call.name])
+        observation = simulator.observation()
+        state = simulator.geometric_state()
+        snapshot = simulator.get_state()
+        encoded, policy_action = sampler.policy_action(observation, objects, call.args)
+        if call.name == spec.skill:
+            for attempt in range(spec.actions_per_scene):
+                if attempt:
+                    simulator.set_state(snapshot)
+                action = sampler.draw(state, call.args, encoded, policy_action, rng)
+                result = simulator.execute(call.name, call.args, action)
+                yield make_row(objects, call.args, NOT_ENUMERATED, reset.accepted_seed, observation, action, result.observation,
+                               result.success, result.truncated, result.failure)
+        if index == last or not _advance(simulator, sampler, call, snapshot, encoded, policy_action, rng):
+            return
+
+
+def _advance(simulator: Any, sampler: ProposalSampler, call: Any, snapshot: Any, encoded: np.ndarray, policy_action: np.ndarray,
+             rng: np.random.Generator) -> bool:
+    """Execute ``call`` from ``snapshot`` with best-valued draws until one succeeds (at most
+    :data:`ADVANCE_ATTEMPTS`); whether one did (the simulator is left in its outcome)."""
+    for _ in range(ADVANCE_ATTEMPTS):
+        simulator.set_state(snapshot)
+        if simulator.execute(call.name, call.args, sampler.optimum(encoded, policy_action, rng)).success:
+            return True
+    return False
+

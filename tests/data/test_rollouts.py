@@ -1,0 +1,88 @@
+"""Proposal data along task-suite rollouts (docs/guide/skills.md#task-rollouts), with the real
+simulator and the shipped skill library."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from t2m_core.data.chunks import ChunkSpec, DataGenerationError, ProposalSource, generate_chunk
+from t2m_core.data.generate import DatasetJob, _existing_header, _require_same_dataset, write_manifest
+from t2m_core.data.proposals import library_digest
+from t2m_core.data.rollouts import NOT_ENUMERATED, TASK_SEED_FLOOR, rollout_tasks
+from t2m_core.data.scenes import DATA_SKILLS
+from t2m_core.registry import get_registry
+
+SKILLS = ("pick", "place", "pull", "push")
+
+
+@pytest.fixture(scope="module")
+def shipped():
+    directory = get_registry().get("skill_library", "tableenv").options().checkpoint_directory
+    return ProposalSource("tableenv", str(directory), library_digest(directory, DATA_SKILLS))
+
+
+def test_rollout_tasks_are_those_whose_reference_skeleton_calls_the_skill() -> None:
+    assert {t.id for t in rollout_tasks("push")} == {"task1"}  # the one task that pushes a box under the rack
+    assert len(rollout_tasks("place")) == 7
+    for task in rollout_tasks("pull"):
+        assert "pull" in [call.name for call in task.reference_skeleton]
+
+
+def test_a_rollout_chunk_is_deterministic_and_starts_from_reached_states(shipped) -> None:
+    spec = ChunkSpec("place", "train", 0, 6, sampler="proposal", actions_per_scene=3, proposal=shipped, scenes="tasks")
+    first, _ = generate_chunk(spec, get_registry().create("simulator", "mujoco"))
+    simulator = get_registry().create("simulator", "mujoco")
+    again, _ = generate_chunk(spec, simulator)
+    for name, column in first.columns().items():
+        np.testing.assert_array_equal(column, again.columns()[name], err_msg=name)
+    assert np.all(first.symbolic_state == NOT_ENUMERATED)
+    assert np.all(first.scene_seed >= TASK_SEED_FLOOR)
+    for row in range(len(first)):
+        # a place starts with the object in hand: a pick ran before it, so the row's state is not the
+        # task scene the seed resets to
+        held = first.argument_names(row)[0]
+        candidates = [t for t in rollout_tasks("place") if set(first.object_names(row)) == set(t.objects)]
+        assert candidates, first.object_names(row)
+        task = candidates[0]
+        reset = simulator.reset(task, seed=int(first.scene_seed[row]))
+        assert held in task.objects
+        assert not np.allclose(reset.observation, first.observation[row], atol=1e-3)
+
+
+def test_task_scenes_need_the_proposal_sampler_and_a_simulated_split(shipped) -> None:
+    with pytest.raises(DataGenerationError, match="proposal sampler"):
+        ChunkSpec("place", "train", 0, 5, scenes="tasks")
+    with pytest.raises(DataGenerationError, match="unknown scene source"):
+        ChunkSpec("place", "train", 0, 5, scenes="kitchen")
+    # the invalid split is not simulated: a task-scene job makes its usual invalid chunks
+    job = DatasetJob("/tmp/unused", "place", "invalid", 10, sampler="proposal", proposal=shipped, scenes="tasks")
+    assert all(spec.scenes == "data" and spec.proposal is None for spec in job.chunks())
+
+
+def test_a_task_rollout_dataset_is_never_mixed_with_data_scenes(tmp_path, shipped) -> None:
+    rollout = DatasetJob(tmp_path, "place", "train", 6, chunk_size=6, sampler="proposal", actions_per_scene=3, proposal=shipped, scenes="tasks")
+    from t2m_core.data.generate import make_chunk
+
+    make_chunk(rollout, rollout.chunks()[0])
+    write_manifest(rollout)
+    assert json.loads((rollout.directory / "manifest.json").read_text())["scenes"] == "tasks"
+    plain = DatasetJob(tmp_path, "place", "train", 6, chunk_size=6, sampler="proposal", actions_per_scene=3,
+                       proposal=ProposalSource("tableenv", shipped.checkpoints, shipped.digest))
+    assert _existing_header(plain, plain.chunks()[0]) is None  # its shard is not one of the plain job's
+    with pytest.raises(DataGenerationError, match="scenes 'tasks'"):
+        _require_same_dataset(plain)
+
+
+def test_the_library_digest_changes_with_any_skill_checkpoint(tmp_path, shipped) -> None:
+    root = tmp_path / "checkpoints"
+    shutil.copytree(shipped.checkpoints, root)
+    before = library_digest(root, SKILLS)
+    assert before == shipped.digest
+    config = root / "push" / "config.json"
+    config.write_text(config.read_text() + "\n")
+    assert library_digest(root, SKILLS) != before
+
