@@ -16,6 +16,7 @@ library (:func:`~t2m_core.data.proposals.library_digest`).
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Iterator
 from functools import lru_cache
 from typing import TYPE_CHECKING, Any
@@ -75,12 +76,15 @@ def task_rollout_rows(
     tasks = rollout_tasks(spec.skill)
     task = tasks[int(rng.integers(len(tasks)))]
     scene_seed = int(rng.integers(TASK_SEED_FLOOR, 2**31 - 1))
+    started = time.perf_counter()
     try:
         reset = simulator.reset(task, seed=scene_seed)
     except SamplingError:
         stats.reset_failures += 1
         yield None
         return
+    finally:
+        stats.reset_seconds += time.perf_counter() - started
     stats.reset_rejections += reset.rejections
     library = rollout_library(spec, skills)
     objects = tuple(reset.state.object_names)

@@ -121,3 +121,12 @@ def test_init_from_starts_training_from_another_checkpoints_weights(dataset, tmp
     assert config["training"]["learning_rate"] == 1e-12
     missing = runner.invoke(app, ["train", *common, "--init-from", str(tmp_path / "nowhere"), "--out", str(tmp_path / "x")])
     assert missing.exit_code != 0 and "no pick checkpoint" in missing.output
+
+
+def test_task_scenes_without_the_proposal_sampler_are_a_clear_error(tmp_path) -> None:
+    result = runner.invoke(app, ["datagen", "--skill", "place", "--split", "train", "--size", "4", "--scenes", "tasks", "--out", str(tmp_path)])
+    assert result.exit_code != 0
+    assert "--sampler proposal" in result.output
+    unknown = runner.invoke(app, ["datagen", "--skill", "place", "--split", "train", "--size", "4", "--scenes", "kitchen", "--out", str(tmp_path)])
+    assert unknown.exit_code != 0 and "data, tasks" in unknown.output
+    assert not any(tmp_path.iterdir())  # nothing written
