@@ -22,6 +22,8 @@ from typing import Any, Literal
 
 import torch
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from t2m_core.errors import T2MError
 from torch import nn
 
 from t2m_skills_tableenv.checkpoints import load_training_state, save_training_state, save_weights, update_config
@@ -315,9 +317,9 @@ def run_stage(
     if state_path.exists():
         extra = load_training_state(state_path, {**saved, "generator": _GeneratorModule(generator)})
         if _saved_settings(extra.get("settings")) != settings.model_dump():  # never mix two schedules in one model
-            raise ValueError(
-                f"{state_path} belongs to a run with other settings ({extra.get('settings')}); delete it to "
-                f"train the {stage.model} model afresh"
+            raise T2MError(
+                f"{state_path} is the interrupted run of a {stage.model} model with other settings ({extra.get('settings')})",
+                f"rerun with those settings to resume it, or delete {state_path} to train the {stage.model} model afresh",
             )
         step, best = extra["step"], extra["best"]
     elif metrics_path.exists():
@@ -483,8 +485,6 @@ def _with_overrides(settings: StageSettings, overrides: dict[str, Any]) -> Stage
     Raises:
         T2MError: an unknown field or a value out of its range, named with the valid ones.
     """
-    from t2m_core.errors import T2MError
-
     try:
         return StageSettings.model_validate({**settings.model_dump(), **overrides})
     except ValidationError as error:

@@ -176,8 +176,9 @@ def test_a_run_with_other_settings_does_not_mix_with_a_saved_state(tmp_path) -> 
     settings = StageSettings(steps=10, batch_size=32, learning_rate=1e-3, eval_every=10)
     run_stage(QStage(train, validation, settings), settings, tmp_path)
     other = settings.model_copy(update={"learning_rate": 5e-4})
-    with pytest.raises(ValueError, match="other settings"):
+    with pytest.raises(T2MError, match="other settings") as refused:
         run_stage(QStage(train, validation, other), other, tmp_path)
+    assert "delete" in refused.value.hint  # the way out is named
 
 
 def test_a_state_saved_before_a_settings_field_existed_still_resumes() -> None:
