@@ -38,8 +38,8 @@ def datagen(
     proposal_library: Annotated[str, typer.Option("--proposal-library", help="With --sampler proposal: the skill library plugin.")] = "tableenv",
     scenes: Annotated[
         str,
-        typer.Option("--scenes", help="Where transitions start: data (enumerated symbolic states, default) or tasks (states reached along "
-                     "the task suite's reference skeletons; needs --sampler proposal)."),
+        typer.Option("--scenes", help="Where transitions start: data (enumerated symbolic states, default), tasks (states reached along "
+                     "the task suite's reference skeletons; needs --sampler proposal) or tasks:ID,ID (those tasks' skeletons only)."),
     ] = "data",
     as_json: Annotated[bool, typer.Option("--json", help="Print the manifests as JSON on stdout.")] = False,
 ) -> None:
@@ -59,9 +59,9 @@ def datagen(
         raise T2MError(f"unknown skill {skill!r}", f"use one of: {', '.join(DATA_SKILLS)}, all")
     if split != "invalid":
         sim = get_registry().get("simulator", sim).name  # an unknown name fails here, with the choices
-    if scenes not in SCENES:
-        raise T2MError(f"unknown scene source {scenes!r}", f"use one of: {', '.join(SCENES)}")
-    if scenes == "tasks" and sampler != "proposal":
+    if scenes.partition(":")[0] not in SCENES:
+        raise T2MError(f"unknown scene source {scenes!r}", f"use one of: {', '.join(SCENES)}, or tasks:ID,ID")
+    if scenes != "data" and sampler != "proposal":
         raise T2MError("--scenes tasks advances along the skeletons with a skill library's proposals", "add --sampler proposal")
     if proposal_checkpoints is not None and sampler != "proposal":
         raise T2MError("--proposal-checkpoints is for the proposal sampler", "add --sampler proposal, or drop --proposal-checkpoints")
@@ -72,7 +72,7 @@ def datagen(
         for name in skills:
             proposal = None
             if proposal_directory is not None:
-                digest = library_digest(proposal_directory, DATA_SKILLS) if scenes == "tasks" else checkpoint_digest(proposal_directory, name)
+                digest = library_digest(proposal_directory, DATA_SKILLS) if scenes != "data" else checkpoint_digest(proposal_directory, name)
                 proposal = ProposalSource(proposal_library, str(proposal_directory), digest)
             job = DatasetJob(out.resolve(), name, split, size, chunk_size, seed, sampler, sim, actions_per_scene=actions_per_scene, proposal=proposal,
                              scenes=scenes)

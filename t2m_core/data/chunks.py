@@ -26,7 +26,7 @@ from t2m_core.data.records import (
     failure_code,
     name_indices,
 )
-from t2m_core.data.rollouts import task_rollout_rows
+from t2m_core.data.rollouts import parse_rollout_tasks, rollout_tasks, task_rollout_rows
 from t2m_core.data.scenes import DATA_SKILLS, DataTask, draw_data_task
 from t2m_core.domain.geometry import quat_multiply, rotate, yaw_to_quat
 from t2m_core.domain.observation import MAX_OBJECTS, argument_first_order, encode_observation
@@ -53,7 +53,8 @@ SAMPLERS: dict[str, str] = {
 SCENES: tuple[str, ...] = ("data", "tasks")
 """Where simulated transitions start: ``data``, the enumerated symbolic states with distractors
 (:mod:`t2m_core.data.scenes`); ``tasks``, states reached along rollouts of the task suite's
-reference skeletons (:mod:`t2m_core.data.rollouts`, proposal sampler only)."""
+reference skeletons (:mod:`t2m_core.data.rollouts`, proposal sampler only), or ``tasks:ID,ID``
+along those of the named tasks only."""
 
 
 class DataGenerationError(T2MError):
@@ -115,13 +116,21 @@ class ChunkSpec:
             raise DataGenerationError(f"unknown action sampler {self.sampler!r}", f"use one of: {', '.join(SAMPLERS)}")
         if (self.sampler == "proposal") != (self.proposal is not None) and self.simulated:
             raise DataGenerationError("the proposal sampler, and only it, needs a proposal skill library", "give --proposal-checkpoints with --sampler proposal")
-        if self.scenes not in SCENES:
-            raise DataGenerationError(f"unknown scene source {self.scenes!r}", f"use one of: {', '.join(SCENES)}")
-        if self.scenes == "tasks" and (self.sampler != "proposal" or not self.simulated):
+        if self.scenes != "data":
+            self._check_rollout_tasks()
+        if self.scenes != "data" and (self.sampler != "proposal" or not self.simulated):
             raise DataGenerationError("task-rollout scenes need the proposal sampler (it advances along the skeletons) and a simulated split",
                                       "add --sampler proposal, or drop --scenes tasks")
         if self.size < 1 or self.index < 0 or self.base_seed < 0 or self.actions_per_scene < 1:
             raise DataGenerationError(f"chunk size and actions per scene must be >= 1 and index, seed >= 0; got {self}")
+
+    def _check_rollout_tasks(self) -> None:
+        try:
+            tasks = rollout_tasks(self.skill, parse_rollout_tasks(self.scenes))
+        except ValueError as error:
+            raise DataGenerationError(f"unknown scene source {self.scenes!r}: {error}", "use data, tasks, or tasks:ID,ID (e.g. tasks:task0,task2)") from None
+        if not tasks:
+            raise DataGenerationError(f"no task of {self.scenes!r} calls {self.skill} in its reference skeleton", "name tasks whose plans use the skill")
 
     @property
     def filename(self) -> str:
@@ -215,7 +224,7 @@ def generate_chunk(spec: ChunkSpec, simulator: Any = None) -> tuple[Transitions,
     rows: list[dict[str, Any]] = []
     kept_failures = 0
     while len(rows) < spec.size:
-        if spec.scenes == "tasks":
+        if spec.scenes != "data":
             scene_rows = task_rollout_rows(spec, simulator, rng, stats, DATA_SKILLS, _row)
         else:
             task = draw_data_task(spec.skill, spec.simulated, rng)

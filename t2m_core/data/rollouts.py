@@ -43,12 +43,44 @@ data states."""
 RowMaker = Callable[..., dict[str, Any]]
 
 
-@lru_cache(maxsize=8)
-def rollout_tasks(skill: str) -> tuple[Task, ...]:
-    """The shipped tasks whose reference skeleton calls ``skill``, in id order."""
+TASKS_PREFIX = "tasks"
+"""The scene source of rollouts: ``tasks`` (every shipped task whose skeleton calls the skill) or
+``tasks:ID,ID`` (those of the named tasks)."""
+
+
+def parse_rollout_tasks(scenes: str) -> tuple[str, ...] | None:
+    """The task ids a rollout scene source names (``None``: every shipped task).
+
+    Raises:
+        ValueError: ``scenes`` is not ``tasks`` or ``tasks:ID,...``.
+    """
+    name, colon, ids = scenes.partition(":")
+    if name != TASKS_PREFIX:
+        raise ValueError(f"{scenes!r} is not a task-rollout scene source")
+    if not colon:
+        return None
+    names = tuple(i.strip() for i in ids.split(",") if i.strip())
+    if not names:
+        raise ValueError(f"{scenes!r} names no task")
+    return names
+
+
+@lru_cache(maxsize=32)
+def rollout_tasks(skill: str, ids: tuple[str, ...] | None = None) -> tuple[Task, ...]:
+    """The shipped tasks (all, or those with ``ids``) whose reference skeleton calls ``skill``, in id order.
+
+    Raises:
+        ValueError: an id that is not a shipped task.
+    """
     from t2m_core.tasks import list_tasks
 
-    return tuple(task for task in list_tasks() if any(call.name == skill for call in task.reference_skeleton))
+    tasks = list_tasks()
+    if ids is not None:
+        unknown = sorted(set(ids) - {task.id for task in tasks})
+        if unknown:
+            raise ValueError(f"no shipped task {', '.join(unknown)} (the tasks are {', '.join(t.id for t in tasks)})")
+        tasks = tuple(task for task in tasks if task.id in ids)
+    return tuple(task for task in tasks if any(call.name == skill for call in task.reference_skeleton))
 
 
 def rollout_library(spec: ChunkSpec, skills: tuple[str, ...]) -> dict[str, Any]:
@@ -73,7 +105,7 @@ def task_rollout_rows(
         make_row: builds a row from ``(objects, arguments, symbolic_state, scene_seed, observation,
             action, next_observation, success, truncated, failure)``.
     """
-    tasks = rollout_tasks(spec.skill)
+    tasks = rollout_tasks(spec.skill, parse_rollout_tasks(spec.scenes))
     task = tasks[int(rng.integers(len(tasks)))]
     scene_seed = int(rng.integers(TASK_SEED_FLOOR, 2**31 - 1))
     started = time.perf_counter()

@@ -86,3 +86,16 @@ def test_the_library_digest_changes_with_any_skill_checkpoint(tmp_path, shipped)
     config.write_text(config.read_text() + "\n")
     assert library_digest(root, SKILLS) != before
 
+
+
+def test_rollouts_can_be_restricted_to_named_tasks(shipped) -> None:
+    assert [t.id for t in rollout_tasks("place", ("task2", "task0"))] == ["task0", "task2"]
+    spec = ChunkSpec("place", "train", 0, 4, sampler="proposal", actions_per_scene=2, proposal=shipped, scenes="tasks:task2")
+    rows, _ = generate_chunk(spec, get_registry().create("simulator", "mujoco"))
+    task2_places = {call.args for call in rollout_tasks("place", ("task2",))[0].reference_skeleton if call.name == "place"}
+    assert {rows.argument_names(i) for i in range(len(rows))} <= task2_places
+    assert spec.header()["scenes"] == "tasks:task2"  # what the data depend on is recorded
+    with pytest.raises(DataGenerationError, match="no shipped task task9"):
+        ChunkSpec("place", "train", 0, 4, sampler="proposal", proposal=shipped, scenes="tasks:task9")
+    with pytest.raises(DataGenerationError, match="calls pull"):
+        ChunkSpec("pull", "train", 0, 4, sampler="proposal", proposal=shipped, scenes="tasks:task0,task1")
