@@ -47,8 +47,8 @@ def main() -> None:
     from t2m_core.atomic_files import write_json_atomic
     from t2m_core.data.generate import load_split
     from t2m_skills_tableenv.dataset import SkillTensors
-    from t2m_skills_tableenv.checkpoints import load_weights
-    from t2m_skills_tableenv.networks import Dynamics, QEnsemble
+    from t2m_skills_tableenv.checkpoints import load_q, load_weights
+    from t2m_skills_tableenv.networks import Dynamics
     from t2m_skills_tableenv.report import dynamics_errors
     from t2m_skills_tableenv.training import WEIGHT_FILES, q_metrics, train_skill
 
@@ -69,7 +69,7 @@ def main() -> None:
         results = train_skill(args.skill, models, args.data, checkpoint, overrides)
         point: dict = {"train_size": size, "train_seconds": round(time.perf_counter() - started, 1)}
         if "q" in models:
-            point["q"] = q_metrics(load_weights(checkpoint / WEIGHT_FILES["q"], QEnsemble()).eval(), validation)
+            point["q"] = q_metrics(load_q(checkpoint).eval(), validation)
             point["q"]["best_step"] = results["q"]["best_step"]
         if "dynamics" in models:
             dynamics = load_weights(checkpoint / WEIGHT_FILES["dynamics"], Dynamics()).eval()

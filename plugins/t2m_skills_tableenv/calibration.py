@@ -15,11 +15,10 @@ from typing import Any
 
 import numpy as np
 import torch
+from torch import nn
 
-from t2m_skills_tableenv.checkpoints import load_weights, update_config
+from t2m_skills_tableenv.checkpoints import load_q, update_config
 from t2m_skills_tableenv.dataset import SkillTensors
-from t2m_skills_tableenv.networks import QEnsemble
-from t2m_skills_tableenv.training import WEIGHT_FILES
 
 MEAN_BINS = np.linspace(0.0, 1.0, 11)
 """Edges of the μ bins."""
@@ -32,7 +31,7 @@ PLOT_NAME = "ood_calibration.png"
 
 
 @torch.no_grad()
-def ensemble_statistics(q_ensemble: QEnsemble, data: SkillTensors, batch: int = 8192) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def ensemble_statistics(q_ensemble: nn.Module, data: SkillTensors, batch: int = 8192) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(mean (N,), population variance (N,), minimum (N,))`` of the member probabilities on every pair."""
     means, variances, minima = [], [], []
     for start in range(0, len(data), batch):
@@ -71,7 +70,7 @@ def calibrate_skill(skill: str, data: Path, checkpoint: Path) -> dict[str, Any]:
     ``data/<skill>/invalid``; store and return the result."""
     from t2m_core.data.generate import manifest_digest
 
-    q_ensemble = load_weights(Path(checkpoint) / WEIGHT_FILES["q"], QEnsemble()).eval()
+    q_ensemble = load_q(Path(checkpoint)).eval()
     validation_dir, invalid_dir = Path(data) / skill / "validation", Path(data) / skill / "invalid"
     valid_mean, valid_var, _ = ensemble_statistics(q_ensemble, SkillTensors.load(validation_dir))
     invalid_mean, invalid_var, invalid_min = ensemble_statistics(q_ensemble, SkillTensors.load(invalid_dir))

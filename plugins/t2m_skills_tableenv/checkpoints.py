@@ -70,6 +70,25 @@ def read_config(directory: Path) -> dict[str, Any]:
     return config
 
 
+def load_q(directory: Path) -> nn.Module:
+    """The Q-ensemble of the skill checkpoint ``directory``, built as its ``config.json`` says
+    (the MLP when the config names no architecture).
+
+    Raises:
+        CheckpointError: a missing or broken config or weight file, or an unknown architecture.
+    """
+    from t2m_skills_tableenv.networks import build_q
+
+    directory = Path(directory)
+    config = read_config(directory)
+    architecture = config.get("models", {}).get("q", {}).get("architecture", {})
+    try:
+        network = build_q(architecture)
+    except (ValueError, KeyError, TypeError) as error:
+        raise CheckpointError(f"{directory / CONFIG_NAME} describes a Q-ensemble this t2m cannot build: {error}", "retrain it with `t2m train` or upgrade t2m") from None
+    return load_weights(directory / "q_ensemble.safetensors", network)
+
+
 def update_config(directory: Path, **sections: Any) -> dict[str, Any]:
     """Merge ``sections`` into ``config.json`` (created when missing) and write it atomically."""
     path = Path(directory) / CONFIG_NAME

@@ -14,8 +14,8 @@ import numpy as np
 import torch
 
 from t2m_core.data.scenes import DATA_SKILLS
-from t2m_skills_tableenv.checkpoints import CheckpointError, load_weights, read_config
-from t2m_skills_tableenv.networks import Dynamics, GaussianPolicy, QEnsemble
+from t2m_skills_tableenv.checkpoints import CheckpointError, load_q, load_weights, read_config
+from t2m_skills_tableenv.networks import Dynamics, GaussianPolicy, QEnsemble, RelationalQEnsemble
 from t2m_skills_tableenv.options import TableEnvSkillsOptions
 from t2m_skills_tableenv.training import WEIGHT_FILES
 
@@ -33,7 +33,7 @@ class TableEnvSkill:
 
     action_dim = 4
 
-    def __init__(self, name: str, q_ensemble: QEnsemble, policy: GaussianPolicy, dynamics: Dynamics, config: dict[str, Any]) -> None:
+    def __init__(self, name: str, q_ensemble: QEnsemble | RelationalQEnsemble, policy: GaussianPolicy, dynamics: Dynamics, config: dict[str, Any]) -> None:
         self.name = name
         self.q_ensemble = q_ensemble.eval().requires_grad_(False)
         self.policy_network = policy.eval().requires_grad_(False)
@@ -57,7 +57,7 @@ class TableEnvSkill:
             raise CheckpointError(f"{directory / 'config.json'} has no {', '.join(missing)} model", f"train it: t2m train --skill {name} --model all")
         return cls(
             name,
-            load_weights(directory / WEIGHT_FILES["q"], QEnsemble()),
+            load_q(directory),
             load_weights(directory / WEIGHT_FILES["policy"], GaussianPolicy()),
             load_weights(directory / WEIGHT_FILES["dynamics"], Dynamics()),
             config,

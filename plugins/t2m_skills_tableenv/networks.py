@@ -3,6 +3,8 @@
 
 - :class:`QEnsemble`: B = 8 independent success classifiers evaluated as one batched module (one
   ``baddbmm`` per layer for all members; no Python loop over members).
+- :class:`RelationalQEnsemble`: the same ensemble with a permutation-invariant reading of the
+  non-argument objects (docs/guide/skills.md#relational-q-ensemble), an option of ``t2m train``.
 - :class:`GaussianPolicy`: a tanh-squashed diagonal Gaussian; the deterministic action is tanh(μ).
 - :class:`Dynamics`: a residual MLP on the 96-D dynamics state.
 """
@@ -10,9 +12,14 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
+import numpy as np
 import torch
 from torch import nn
+
+from t2m_core.domain.observation import FEATURES as ROW_FEATURES
+from t2m_core.domain.observation import OBSERVATION_ROWS, normalize
 
 STATE_DIM = 96
 ACTION_DIM = 4
@@ -57,6 +64,101 @@ class QEnsemble(nn.Module):
     def probabilities(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
         """``(N, B)`` success probabilities of every member."""
         return torch.sigmoid(self.forward(states, actions))
+
+
+def _stacked_linear(members: int, fan_in: int, fan_out: int, gain: float) -> tuple[nn.Parameter, nn.Parameter]:
+    """``(B, fan_in, fan_out)`` orthogonal weights and ``(B, 1, fan_out)`` zero biases."""
+    weight = torch.empty(members, fan_in, fan_out)
+    for member in range(members):
+        nn.init.orthogonal_(weight[member].T, gain=gain)
+    return nn.Parameter(weight), nn.Parameter(torch.zeros(members, 1, fan_out))
+
+
+_EMPTY_ROW = torch.from_numpy(normalize(np.zeros(ROW_FEATURES, dtype=np.float32)))
+"""A raw all-zero row after normalisation: an empty slot (the table's row is all zero too, and
+carries nothing: the table never moves)."""
+
+
+class RelationalQEnsemble(nn.Module):
+    """B success classifiers that read the other objects as a set.
+
+    The context ``c`` is the end-effector row, the skill's argument rows (``context_rows`` rows in
+    all: 1 + the skill's arity) and the action. Each other present object ``o_k`` is encoded
+    together with the context, ``h_k = φ(c, o_k)`` (two ReLU layers), the encodings are max-pooled
+    over the objects, and ``ρ(c, max_k h_k)`` (two ReLU layers, one logit) scores the pair. The
+    output does not depend on the order of the non-argument rows, which an MLP has to learn from
+    shuffled rows. Rows that are all zero in raw units (empty slots, the table) are left out.
+
+    ``forward(states (N, 96), actions (N, 4))`` returns the logits ``(N, B)``, like
+    :class:`QEnsemble`; so does ``((B, N, 96), (B, N, 4))``.
+    """
+
+    def __init__(self, context_rows: int, members: int = ENSEMBLE_SIZE, width: int = 128) -> None:
+        super().__init__()
+        if not 1 <= context_rows < OBSERVATION_ROWS:
+            raise ValueError(f"context_rows must be in [1, {OBSERVATION_ROWS - 1}], got {context_rows}")
+        self.members, self.context_rows, self.width = members, context_rows, width
+        context = context_rows * ROW_FEATURES + ACTION_DIM
+        gain = math.sqrt(2.0)
+        # the first layers are split by input block: the context's share is computed once per sample
+        self.phi_context_w, self.phi_b1 = _stacked_linear(members, context, width, gain)
+        self.phi_object_w, _ = _stacked_linear(members, ROW_FEATURES, width, gain)
+        self.phi_w2, self.phi_b2 = _stacked_linear(members, width, width, gain)
+        self.rho_context_w, self.rho_b1 = _stacked_linear(members, context, width, gain)
+        self.rho_pooled_w, _ = _stacked_linear(members, width, width, gain)
+        self.rho_w2, self.rho_b2 = _stacked_linear(members, width, width, gain)
+        self.out_w, self.out_b = _stacked_linear(members, width, 1, 1.0)
+        self.register_buffer("empty_row", _EMPTY_ROW.clone(), persistent=False)
+
+    def forward(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        """Logits ``(N, B)``."""
+        if states.dim() == 2:
+            states = states.unsqueeze(0).expand(self.members, -1, -1)
+            actions = actions.unsqueeze(0).expand(self.members, -1, -1)
+        members, count = states.shape[0], states.shape[1]
+        rows = states.reshape(members, count, OBSERVATION_ROWS, ROW_FEATURES)
+        context = torch.cat((rows[:, :, : self.context_rows].reshape(members, count, -1), actions), dim=-1)
+        others = rows[:, :, self.context_rows :]  # (B, N, K, 12)
+        objects = others.shape[2]
+        absent = torch.isclose(others, self.empty_row, atol=1e-6).all(dim=-1, keepdim=True)  # (B, N, K, 1)
+        shared = torch.baddbmm(self.phi_b1, context, self.phi_context_w)  # (B, N, W)
+        hidden = torch.bmm(others.reshape(members, count * objects, ROW_FEATURES), self.phi_object_w)
+        hidden = hidden.view(members, count, objects, -1).add_(shared.unsqueeze(2)).relu_()
+        hidden = torch.baddbmm(self.phi_b2, hidden.view(members, count * objects, -1), self.phi_w2).relu_()
+        # ReLU outputs are ≥ 0, so an absent object's zeros never win the max
+        pooled = hidden.view(members, count, objects, -1).masked_fill(absent, 0.0).amax(dim=2)  # (B, N, W)
+        x = torch.baddbmm(self.rho_b1, context, self.rho_context_w).baddbmm_(pooled, self.rho_pooled_w).relu_()
+        x = torch.baddbmm(self.rho_b2, x, self.rho_w2).relu_()
+        return torch.baddbmm(self.out_b, x, self.out_w).squeeze(-1).T
+
+    def probabilities(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        """``(N, B)`` success probabilities of every member."""
+        return torch.sigmoid(self.forward(states, actions))
+
+
+def q_architecture(skill: str, network: str) -> dict[str, Any]:
+    """The ``config.json`` architecture of ``skill``'s Q-ensemble of kind ``network`` (``"mlp"`` or
+    ``"relational"``; the relational network's context is the end effector and the skill's arguments)."""
+    if network == "mlp":
+        return {"type": "QEnsemble", "members": ENSEMBLE_SIZE, "input": 100, "hidden": list(HIDDEN), "output": "sigmoid", "loss": "bce"}
+    from t2m_core.domain.primitives import get_primitive
+
+    context_rows = 1 + len(get_primitive(skill).argument_kinds)
+    return {"type": "RelationalQEnsemble", "members": ENSEMBLE_SIZE, "input": 100, "context_rows": context_rows, "width": 128, "pooling": "max", "output": "sigmoid", "loss": "bce"}
+
+
+def build_q(architecture: dict[str, Any]) -> QEnsemble | RelationalQEnsemble:
+    """A fresh Q-ensemble as ``architecture`` (a checkpoint's ``models.q.architecture``) describes it.
+
+    Raises:
+        ValueError: an architecture type this library does not know.
+    """
+    kind = architecture.get("type", "QEnsemble")
+    if kind == "QEnsemble":
+        return QEnsemble(members=int(architecture.get("members", 8)), hidden=tuple(architecture.get("hidden", (256, 256))))
+    if kind == "RelationalQEnsemble":
+        return RelationalQEnsemble(int(architecture["context_rows"]), members=int(architecture.get("members", 8)), width=int(architecture.get("width", 128)))
+    raise ValueError(f"unknown Q-ensemble type {kind!r} (known: QEnsemble, RelationalQEnsemble)")
 
 
 def mlp(sizes: tuple[int, ...]) -> nn.Sequential:

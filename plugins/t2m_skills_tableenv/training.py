@@ -26,9 +26,9 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from t2m_core.errors import T2MError
 from torch import nn
 
-from t2m_skills_tableenv.checkpoints import load_training_state, save_training_state, save_weights, update_config
+from t2m_skills_tableenv.checkpoints import load_q, load_training_state, save_training_state, save_weights, update_config
 from t2m_skills_tableenv.dataset import SkillTensors
-from t2m_skills_tableenv.networks import ACTION_DIM, Dynamics, GaussianPolicy, QEnsemble
+from t2m_skills_tableenv.networks import ACTION_DIM, Dynamics, GaussianPolicy, QEnsemble, RelationalQEnsemble, build_q, q_architecture
 
 MODELS: tuple[str, ...] = ("q", "policy", "dynamics")
 WEIGHT_FILES: dict[str, str] = {"q": "q_ensemble.safetensors", "policy": "policy.safetensors", "dynamics": "dynamics.safetensors"}
@@ -61,6 +61,11 @@ class StageSettings(BaseModel):
         "shared",
         description="Q-ensemble only: every member sees the same batches (the published setting), or each "
         "member draws its batches from its own bootstrap resample of the training set",
+    )
+    q_network: Literal["mlp", "relational"] = Field(
+        "mlp",
+        description="Q-ensemble only: the published MLP, or the relational network that reads the other objects "
+        "as a set (docs/guide/skills.md#relational-q-ensemble)",
     )
 
 
@@ -107,9 +112,11 @@ class QStage(Stage):
 
     model = "q"
 
-    def __init__(self, train: SkillTensors, validation: SkillTensors, settings: StageSettings) -> None:
+    def __init__(
+        self, train: SkillTensors, validation: SkillTensors, settings: StageSettings, network: QEnsemble | RelationalQEnsemble | None = None
+    ) -> None:
         self.train, self.validation = train, validation
-        self.network = QEnsemble()
+        self.network = network if network is not None else QEnsemble()
         self.resample: torch.Tensor | None = None
         if settings.ensemble_batches == "bootstrap":
             generator = torch.Generator().manual_seed(settings.seed + 1)
@@ -162,7 +169,7 @@ class PolicyStage(Stage):
         self,
         train: SkillTensors,
         validation: SkillTensors,
-        q_ensemble: QEnsemble,
+        q_ensemble: QEnsemble | RelationalQEnsemble,
         settings: StageSettings,
         simulate: Callable[[GaussianPolicy], float] | None = None,
     ) -> None:
@@ -244,7 +251,7 @@ class DynamicsStage(Stage):
 
 
 @torch.no_grad()
-def q_metrics(network: QEnsemble, data: SkillTensors) -> dict[str, float]:
+def q_metrics(network: QEnsemble | RelationalQEnsemble, data: SkillTensors) -> dict[str, float]:
     """Validation BCE, and precision / recall / accuracy of the pessimistic prediction
     min_i Q_i > 0.5 (what planning uses) against the rewards."""
     states = data.states()
@@ -392,7 +399,7 @@ def record_stage(checkpoint: Path, skill: str, model: str, settings: StageSettin
     models = dict(config.get("models", {}))
     models[model] = {
         "file": WEIGHT_FILES[model],
-        "architecture": ARCHITECTURES[model],
+        "architecture": q_architecture(skill, settings.q_network) if model == "q" else ARCHITECTURES[model],
         "training": settings.model_dump(),
         "data": data,
         "result": result,
@@ -401,10 +408,11 @@ def record_stage(checkpoint: Path, skill: str, model: str, settings: StageSettin
 
 
 ARCHITECTURES: dict[str, dict[str, Any]] = {
-    "q": {"type": "QEnsemble", "members": 8, "input": 100, "hidden": [256, 256], "output": "sigmoid", "loss": "bce"},
+    "q": q_architecture("pick", "mlp"),
     "policy": {"type": "GaussianPolicy", "input": 96, "hidden": [256, 256], "output": 8, "squash": "tanh", "log_std": [-5.0, 2.0]},
     "dynamics": {"type": "Dynamics", "input": 100, "hidden": [256, 256], "output": 96, "residual": True},
 }
+
 
 
 def train_skill(
@@ -463,9 +471,9 @@ def train_skill(
         torch.manual_seed(stage_settings.seed)
         stage_train = train.head(stage_settings.train_size)
         if model == "q":
-            stage: Stage = QStage(stage_train, validation, stage_settings)
+            stage: Stage = QStage(stage_train, validation, stage_settings, build_q(q_architecture(skill, stage_settings.q_network)))
         elif model == "policy":
-            q_ensemble = load_weights(checkpoint / WEIGHT_FILES["q"], QEnsemble())
+            q_ensemble = load_q(checkpoint)
             simulate = _simulated_selection(skill, simulator, stage_settings.selection_episodes) if stage_settings.selection_episodes else None
             stage = PolicyStage(stage_train, validation, q_ensemble, stage_settings, simulate)
         else:

@@ -49,6 +49,10 @@ def train(
     ensemble_batches: Annotated[
         str | None, typer.Option("--ensemble-batches", help="Q-ensemble batches: shared (published) or bootstrap.")
     ] = None,
+    q_network: Annotated[
+        str | None,
+        typer.Option("--q-network", help="Q-ensemble network: mlp (published) or relational (reads the other objects as a set)."),
+    ] = None,
     selection_episodes: Annotated[
         int | None,
         typer.Option("--selection-episodes", min=0, help="Simulated episodes selecting the policy at each evaluation (0: by the Q-ensemble)."),
@@ -72,7 +76,7 @@ def train(
     trainer = library_entry(library, "trainer")
     chosen = (
         ("steps", steps), ("eval_every", eval_every), ("learning_rate", learning_rate), ("train_size", train_size), ("ensemble_batches", ensemble_batches),
-        ("selection_episodes", selection_episodes),
+        ("selection_episodes", selection_episodes), ("q_network", q_network),
     )
     overrides = {key: value for key, value in chosen if value is not None}
     results = {}
