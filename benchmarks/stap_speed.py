@@ -7,8 +7,9 @@ In one run it measures (1) the reference rate: the 8-member 100-256-256-1 Q-ense
 40 000 samples in float32, in GFLOP/s; (2) the wall time of one ``plan()`` of the chosen planner for
 skeletons of each length (a task3 scene, skills cycling pick/place/pull/push where valid is not
 required: speed does not depend on it), its sample-steps per second, the FLOP rate those imply
-(Q-ensemble + dynamics per sample-step, the policy's once-per-plan rollout ignored) and that rate as
-a fraction of the reference; (3) the process's peak resident memory.
+(each step's Q-ensemble, MLP or relational, + dynamics, counted from the loaded networks; the
+policy's once-per-plan rollout ignored) and that rate as a fraction of the reference; (3) the
+process's peak resident memory.
 """
 
 from __future__ import annotations
@@ -18,15 +19,6 @@ import resource
 import time
 
 import numpy as np
-
-
-def ensemble_flops_per_sample() -> float:
-    """Multiply-adds × 2 of the 8-member 100-256-256-1 ensemble."""
-    return 8 * 2 * (100 * 256 + 256 * 256 + 256 * 1)
-
-
-def dynamics_flops_per_sample() -> float:
-    return 2 * (100 * 256 + 256 * 256 + 256 * 96)
 
 
 def reference_rate(repeats: int = 5) -> float:
@@ -44,7 +36,7 @@ def reference_rate(repeats: int = 5) -> float:
             started = time.perf_counter()
             q(states, actions)
             best = min(best, time.perf_counter() - started)
-    return 40_000 * ensemble_flops_per_sample() / best / 1e9
+    return 40_000 * q.flops_per_sample() / best / 1e9
 
 
 def main() -> None:
@@ -87,7 +79,8 @@ def main() -> None:
         seconds = min(_timed(planner, observation, skeleton, skills, task.objects) for _ in range(args.repeats))
         samples = planner.options.samples(length) if hasattr(planner.options, "samples") else 1
         sample_steps = samples * length * iterations
-        rate = sample_steps * (ensemble_flops_per_sample() + dynamics_flops_per_sample()) / seconds / 1e9
+        flops = samples * iterations * sum(_step_flops(skills[call.name]) for call in skeleton)
+        rate = flops / seconds / 1e9
         rows.append({"length": length, "seconds": round(seconds, 3), "sample_steps_per_second": round(sample_steps / seconds),
                      "gflops": round(rate, 2), "fraction_of_reference": round(rate / reference, 3)})
         print(f"T={length:2d}: {seconds:7.3f} s per plan, {sample_steps / seconds:10.0f} sample-steps/s, "
@@ -96,6 +89,11 @@ def main() -> None:
     print(f"peak resident memory: {peak_mb:.0f} MB")
     write_json_atomic(args.json_out, {"planner": args.planner, "population": args.population, "threads": torch.get_num_threads(),
                                       "reference_gflops": round(reference, 2), "plans": rows, "peak_rss_mb": round(peak_mb)})
+
+
+def _step_flops(skill) -> int:
+    """FLOPs of one sample-step of ``skill``: its Q-ensemble and its dynamics."""
+    return skill.q_ensemble.flops_per_sample() + skill.dynamics.flops_per_sample()
 
 
 def _timed(planner, observation, skeleton, skills, objects) -> float:

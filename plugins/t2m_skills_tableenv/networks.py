@@ -65,6 +65,10 @@ class QEnsemble(nn.Module):
         """``(N, B)`` success probabilities of every member."""
         return torch.sigmoid(self.forward(states, actions))
 
+    def flops_per_sample(self) -> int:
+        """Floating-point operations (2 × multiply-adds) of all members for one (state, action)."""
+        return 2 * sum(int(weight[0].numel()) for weight in self.weights) * self.members
+
 
 def _stacked_linear(members: int, fan_in: int, fan_out: int, gain: float) -> tuple[nn.Parameter, nn.Parameter]:
     """``(B, fan_in, fan_out)`` orthogonal weights and ``(B, 1, fan_out)`` zero biases."""
@@ -130,6 +134,15 @@ class RelationalQEnsemble(nn.Module):
         x = torch.baddbmm(self.rho_b1, context, self.rho_context_w).baddbmm_(pooled, self.rho_pooled_w).relu_()
         x = torch.baddbmm(self.rho_b2, x, self.rho_w2).relu_()
         return torch.baddbmm(self.out_b, x, self.out_w).squeeze(-1).T
+
+    def flops_per_sample(self) -> int:
+        """Floating-point operations (2 × multiply-adds) of all members for one (state, action),
+        every non-argument row encoded (absent ones are computed, then masked)."""
+        objects = OBSERVATION_ROWS - self.context_rows
+        context = self.phi_context_w.shape[1]
+        phi = context * self.width + objects * (ROW_FEATURES * self.width + self.width * self.width)
+        rho = context * self.width + 2 * self.width * self.width + self.width
+        return 2 * (phi + rho) * self.members
 
     def probabilities(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
         """``(N, B)`` success probabilities of every member."""
@@ -214,3 +227,7 @@ class Dynamics(nn.Module):
 
     def forward(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
         return states + self.net(torch.cat((states, 0.5 * actions), dim=-1))
+
+    def flops_per_sample(self) -> int:
+        """Floating-point operations (2 × multiply-adds) for one (state, action)."""
+        return 2 * sum(int(module.weight.numel()) for module in self.net if isinstance(module, nn.Linear))

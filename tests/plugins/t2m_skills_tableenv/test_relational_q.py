@@ -96,3 +96,14 @@ def test_a_relational_checkpoint_loads_as_its_config_says(tmp_path) -> None:
     update_config(tmp_path, models={"q": {"file": WEIGHT_FILES["q"], "architecture": {"type": "Transformer"}}})
     with pytest.raises(CheckpointError, match="unknown Q-ensemble type 'Transformer'"):
         load_q(tmp_path)
+
+
+def test_flop_counts_follow_the_layer_sizes() -> None:
+    from t2m_skills_tableenv.networks import QEnsemble
+
+    assert QEnsemble().flops_per_sample() == 2 * 8 * (100 * 256 + 256 * 256 + 256)
+    assert Dynamics().flops_per_sample() == 2 * (100 * 256 + 256 * 256 + 256 * 96)
+    # Place: context 3 rows + action = 40 inputs, 5 other rows of 12, width 128
+    phi = 40 * 128 + 5 * (12 * 128 + 128 * 128)
+    rho = 40 * 128 + 128 * 128 + 128 * 128 + 128
+    assert RelationalQEnsemble(context_rows=3).flops_per_sample() == 2 * 8 * (phi + rho)
