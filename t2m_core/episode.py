@@ -144,7 +144,7 @@ def run_episode(
         state = parser.parse(SceneObservation(object_names=task.objects, ground_truth=reset.state))
         objects = state.object_names
         scene = describe_state(text, state, objects)
-        session = LanguageSession(model, scene, seed=config.seed)
+        session = LanguageSession(model, scene, seed=config.seed, example_plans=config.prompts.example_plans)
         goal_query = session.predict_goal()
         result.llm_calls += len(goal_query.attempts)
         record({"event": "goal", "goal": goal_query.goal.to_lists() if goal_query.goal else None,

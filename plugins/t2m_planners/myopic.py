@@ -36,7 +36,7 @@ class MyopicPlanner:
             raise ValueError("the myopic baselines execute as they plan: the planning context needs a simulator")
         options = self.options
         session = context.session
-        builder = PromptBuilder(seed=session.prompts.seed, k=options.k, myopic=True)
+        builder = PromptBuilder(seed=session.prompts.seed, k=options.k, myopic=True, example_plans=session.prompts.example_plans)
         objects = tuple(context.object_names)
         history: list[HistoryStep] = []
         executed: list[SkillCall] = []

@@ -10,6 +10,7 @@ A run is one YAML document::
     skills: {name: tableenv, options: {}}
     feasibility_planner: {name: policy-cem, options: {}}
     task_planner: {name: hybrid, options: {}}
+    prompts: {example_plans: steps}
     run: {closed_loop: true}
     output: {video: true, video_fps: 30}
 
@@ -19,7 +20,7 @@ plugin's own model by :func:`t2m_core.config.resolve.resolve_config` when a regi
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -44,6 +45,19 @@ class RunSettings(BaseModel):
         True,
         description="Re-optimise the remaining skills' parameters from the observed state after every "
         "executed skill (docs/guide/feasibility.md#closed-loop-execution); false executes the open-loop plan.",
+    )
+
+
+class PromptSettings(BaseModel):
+    """How the language prompts are written (docs/guide/prompts.md)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    example_plans: Literal["steps", "sequence"] = Field(
+        "steps",
+        description="How the next-skill and scoring prompts' in-context examples write their plans: one "
+        "'Executed action:' line per skill (steps), or the reference's one 'Top robot action sequence:' list "
+        "(sequence); docs/guide/deviations.md#examples-written-as-executed-steps.",
     )
 
 
@@ -86,6 +100,7 @@ class RunConfig(BaseModel):
         default_factory=lambda: ComponentConfig(name="hybrid"),
         description="Task planner: Text2Motion's hybrid by default.",
     )
+    prompts: PromptSettings = Field(default_factory=PromptSettings)
     run: RunSettings = Field(default_factory=RunSettings)
     output: OutputSettings = Field(default_factory=OutputSettings)
 

@@ -224,7 +224,14 @@ def _header(planning: bool, myopic: bool) -> list[str]:
     return lines + [PREDICATES_LABEL + format_string_list(PREDICATES)]
 
 
-def _example_block(example: Example, planning: bool, myopic: bool) -> list[str]:
+EXAMPLE_PLANS = ("steps", "sequence")
+"""How the in-context examples of the step-wise prompts (next skill, scoring) write their plans:
+``"steps"``, one ``Executed action: <skill>`` line per skill, as the current block does; or
+``"sequence"``, one ``Top robot action sequence: [...]`` line, as in the reference
+(docs/guide/deviations.md#examples-written-as-executed-steps). Shooting prompts always use the list."""
+
+
+def _example_block(example: Example, planning: bool, myopic: bool, steps: bool = False) -> list[str]:
     lines = [
         f"Available scene objects: {format_string_list(example.objects)}",
         f"Object relationships: {format_string_list(example.relationships)}",
@@ -233,7 +240,10 @@ def _example_block(example: Example, planning: bool, myopic: bool) -> list[str]:
     ]
     if planning:
         plan = list(example.plan) + (["stop()"] if myopic else [])
-        lines.append(PLAN_LABEL + format_string_list(plan))
+        if steps:
+            lines += [f"{EXECUTED_LABEL} {skill}" for skill in plan]
+        else:
+            lines.append(PLAN_LABEL + format_string_list(plan))
     return lines
 
 
@@ -269,6 +279,8 @@ class PromptBuilder:
             order keeps a small model from copying the goal relation of an unrelated last example.
             With ``"relevance"`` goal prompts show the :data:`GOAL_EXAMPLES_SHOWN` most relevant
             of the examples and goal-only examples; with ``"shuffled"`` all examples, as in the reference.
+        example_plans: how the next-skill and scoring prompts' examples write their plans, one of
+            :data:`EXAMPLE_PLANS` (``"steps"`` by default; ``"sequence"`` as in the reference).
     """
 
     def __init__(
@@ -279,9 +291,13 @@ class PromptBuilder:
         myopic: bool = False,
         order: str = "relevance",
         goal_examples: Sequence[Example] | None = None,
+        example_plans: str = "steps",
     ) -> None:
         if order not in ("relevance", "shuffled"):
             raise ValueError(f"example order must be 'relevance' or 'shuffled', got {order!r}")
+        if example_plans not in EXAMPLE_PLANS:
+            raise ValueError(f"example plans must be one of {', '.join(EXAMPLE_PLANS)}, got {example_plans!r}")
+        self.example_plans = example_plans
         self.seed = seed
         self.example_set = tuple(load_examples() if examples is None else examples)
         self.goal_example_set = tuple(load_goal_examples() if goal_examples is None else goal_examples)
@@ -311,22 +327,25 @@ class PromptBuilder:
     def _planning_context(self, scene: SceneDescription, goal: Goal | str, history: Sequence[HistoryStep]) -> list[str]:
         return [*scene.lines(), PREDICTED_GOAL_LABEL + str(goal), *_history_lines(history)]
 
-    def _planning(self, instruction: str, current: list[str]) -> str:
+    def _planning(self, instruction: str, current: list[str], steps: bool = False) -> str:
         header = _header(planning=True, myopic=self.myopic)
-        blocks = [_example_block(example, planning=True, myopic=self.myopic) for example in self.examples_for(instruction)]
+        blocks = [_example_block(example, planning=True, myopic=self.myopic, steps=steps) for example in self.examples_for(instruction)]
         return _assemble(header, blocks, current)
 
     def shooting(self, scene: SceneDescription, goal: Goal | str, history: Sequence[HistoryStep] = ()) -> str:
-        """Shooting prompt: K whole sequences, continuing ``history`` when it is not empty."""
+        """Shooting prompt: K whole sequences, continuing ``history`` when it is not empty (the
+        examples' plans are always lists here: they show the answer's form)."""
         return self._planning(scene.instruction, [*self._planning_context(scene, goal, history), shooting_query(self.k)])
 
     def next_skill(self, scene: SceneDescription, goal: Goal | str, history: Sequence[HistoryStep] = ()) -> str:
         """Next-skill prompt: K candidate next skills."""
-        return self._planning(scene.instruction, [*self._planning_context(scene, goal, history), next_skill_query(self.k)])
+        current = [*self._planning_context(scene, goal, history), next_skill_query(self.k)]
+        return self._planning(scene.instruction, current, steps=self.example_plans == "steps")
 
     def scoring_context(self, scene: SceneDescription, goal: Goal | str, history: Sequence[HistoryStep] = ()) -> str:
         """The next-skill prompt without its query line, ending with a newline."""
-        return self._planning(scene.instruction, self._planning_context(scene, goal, history)) + "\n"
+        current = self._planning_context(scene, goal, history)
+        return self._planning(scene.instruction, current, steps=self.example_plans == "steps") + "\n"
 
 
 def scoring_request(context: str, candidates: Sequence[str]) -> tuple[str, list[str]]:

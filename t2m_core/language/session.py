@@ -118,6 +118,8 @@ class LanguageSession:
             scene grammar, where any skill over any scene object is allowed.
         cues: let the instruction's relation and count cues shape the goal answer
             (:mod:`t2m_core.language.instruction_cues`).
+        example_plans: how the step-wise prompts' examples write their plans
+            (:data:`t2m_core.language.prompts.EXAMPLE_PLANS`).
     """
 
     def __init__(
@@ -131,10 +133,11 @@ class LanguageSession:
         beta: float = BETA,
         grounded: bool = True,
         cues: bool = True,
+        example_plans: str = "steps",
     ) -> None:
         self.model = model
         self.scene = scene
-        self.prompts = PromptBuilder(seed=seed, k=k)
+        self.prompts = PromptBuilder(seed=seed, k=k, example_plans=example_plans)
         self.k = k
         self.constrained = constrained
         self.beta = beta

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import ast
+
+import pytest
+
 from t2m_core.domain.goals import parse_goal
 from t2m_core.language.prompts import (
     GOAL_QUERY,
@@ -45,7 +49,7 @@ def test_goal_prompt_layout():
 
 def test_next_skill_prompt_with_history_matches_the_reference_example():
     history = [HistoryStep("pick(hook)", ("on(rack, table)", "on(red_box, table)", "on(blue_box, table)", "inhand(hook)"))]
-    prompt = PromptBuilder(seed=0).next_skill(SCENE, GOAL, history)
+    prompt = PromptBuilder(seed=0, example_plans="sequence").next_skill(SCENE, GOAL, history)
     header, *examples, current = prompt.split("\n\n")
     assert header.split("\n") == [
         "Available primitives: ['pick(a)', 'place(a, b)', 'pull(a, hook)', 'push(a, hook, rack)']",
@@ -59,6 +63,28 @@ def test_next_skill_prompt_with_history_matches_the_reference_example():
         "New object relationships: ['on(rack, table)', 'on(red_box, table)', 'on(blue_box, table)', 'inhand(hook)']",
         next_skill_query(5),
     ]
+
+
+def test_step_examples_write_each_plan_as_executed_actions_and_shooting_keeps_the_list():
+    history = [HistoryStep("pick(hook)", ("on(rack, table)", "on(red_box, table)", "on(blue_box, table)", "inhand(hook)"))]
+    builder = PromptBuilder(seed=0)
+    assert builder.example_plans == "steps"
+    stepwise = builder.next_skill(SCENE, GOAL, history)
+    listed = PromptBuilder(seed=0, example_plans="sequence").next_skill(SCENE, GOAL, history)
+    # the same examples, the same current block; only the plan lines differ
+    assert stepwise.split("\n\n")[-1] == listed.split("\n\n")[-1]
+    for step_block, list_block in zip(stepwise.split("\n\n")[1:-1], listed.split("\n\n")[1:-1], strict=True):
+        step_lines, list_lines = step_block.split("\n"), list_block.split("\n")
+        assert step_lines[:4] == list_lines[:4]
+        plan = list_lines[4].removeprefix("Top robot action sequence: ")
+        assert step_lines[4:] == [f"Executed action: {skill}" for skill in ast.literal_eval(plan)]
+    assert "Top robot action sequence" not in stepwise
+    assert builder.scoring_context(SCENE, GOAL, history) + next_skill_query(5) == stepwise
+    # shooting asks for lists, so its examples show lists
+    shooting = builder.shooting(SCENE, GOAL)
+    assert shooting.count("Top robot action sequence: [") == 10 and "Executed action" not in shooting
+    with pytest.raises(ValueError, match="example plans must be one of steps, sequence"):
+        PromptBuilder(example_plans="bullets")
 
 
 def test_shooting_prompt_and_k():
@@ -79,10 +105,12 @@ def test_scoring_context_is_the_next_skill_prompt_without_its_query_line():
 
 
 def test_myopic_prompts_list_stop_and_end_every_example_with_it():
-    prompt = PromptBuilder(seed=0, myopic=True).next_skill(SCENE, GOAL)
+    prompt = PromptBuilder(seed=0, myopic=True, example_plans="sequence").next_skill(SCENE, GOAL)
     assert "'stop()']" in prompt.split("\n")[0]
     plans = [line for line in prompt.split("\n") if line.startswith("Top robot action sequence:")]
     assert len(plans) == 10 and all(line.endswith("'stop()']") for line in plans)
+    stepwise = PromptBuilder(seed=0, myopic=True).next_skill(SCENE, GOAL).split("\n\n")[1:-1]
+    assert len(stepwise) == 10 and all(block.endswith("\nExecuted action: stop()") for block in stepwise)
     assert primitives(myopic=True)[-1] == "stop()"
 
 

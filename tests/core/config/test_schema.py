@@ -16,7 +16,7 @@ def test_schema_is_valid_and_accepts_the_defaults() -> None:
     jsonschema.validate(resolve_config().model_dump(mode="json"), schema)
     assert set(schema["properties"]) == {
         "task", "seed", "simulator", "language_model", "scene_parser", "skills",
-        "feasibility_planner", "task_planner", "run", "output",
+        "feasibility_planner", "task_planner", "prompts", "run", "output",
     }  # fmt: skip
     with pytest.raises(jsonschema.ValidationError, match="'colour' was unexpected"):
         jsonschema.validate({"colour": "red"}, schema)
