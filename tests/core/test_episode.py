@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 
+import pytest
 import yaml
 from typer.testing import CliRunner
 
@@ -115,16 +116,15 @@ def test_a_run_replayed_from_its_transcript_takes_the_same_decisions(t2m_registr
     assert model.requests.count("score") == 3  # the replayed run asked the recorded answers, not the model
 
 
-def test_the_prompts_setting_reaches_the_step_wise_prompts(t2m_registry, t2m_plugin, tmp_path) -> None:
-    for example_plans, marker in (("steps", "\nExecuted action: "), ("sequence", "\nTop robot action sequence: ['")):
-        install(t2m_plugin, RuleModel(goal="[['on(yellow_box, rack)']]", next_skills=["['pick(yellow_box)']", "['place(yellow_box, rack)']"]))
-        out = tmp_path / example_plans
-        result = runner.invoke(app, ["run", *SELECTION, "--planner", "greedy-search", "--set", f"prompts.example_plans={example_plans}",
-                                     "--out", str(out)])
-        assert result.exit_code in (0, 1), result.output
-        transcript = [json.loads(line) for line in (out / "transcript.jsonl").read_text().splitlines()]
-        scoring = [r["request"]["prompt"] for r in transcript if r["kind"] == "score"]
-        assert scoring, [r["kind"] for r in transcript]
-        examples = scoring[0].split("\n\n")[1:-1]
-        assert len(examples) == 10 and all(marker in block for block in examples), example_plans
-        assert yaml.safe_load((out / "config.yaml").read_text())["prompts"]["example_plans"] == example_plans
+@pytest.mark.parametrize(("example_plans", "marker"), [("steps", "\nExecuted action: "), ("sequence", "\nTop robot action sequence: ['")])
+def test_the_prompts_setting_reaches_the_step_wise_prompts(t2m_registry, t2m_plugin, tmp_path, example_plans, marker) -> None:
+    install(t2m_plugin, RuleModel(goal="[['on(yellow_box, rack)']]", next_skills=["['pick(yellow_box)']", "['place(yellow_box, rack)']"]))
+    result = runner.invoke(app, ["run", *SELECTION, "--planner", "greedy-search", "--set", f"prompts.example_plans={example_plans}",
+                                 "--out", str(tmp_path)])
+    assert result.exit_code in (0, 1), result.output
+    transcript = [json.loads(line) for line in (tmp_path / "transcript.jsonl").read_text().splitlines()]
+    scoring = [r["request"]["prompt"] for r in transcript if r["kind"] == "score"]
+    assert scoring, [r["kind"] for r in transcript]
+    examples = scoring[0].split("\n\n")[1:-1]
+    assert len(examples) == 10 and all(marker in block for block in examples)
+    assert yaml.safe_load((tmp_path / "config.yaml").read_text())["prompts"]["example_plans"] == example_plans
