@@ -479,12 +479,31 @@ def train_skill(
         else:
             stage = DynamicsStage(stage_train, validation, stage_settings)
         if init_from is not None:
+            if model == "q":
+                _check_same_q_network(Path(init_from) / skill, stage_settings.q_network)
             load_weights(Path(init_from) / skill / WEIGHT_FILES[model], stage.network)
         total = stage_settings.steps
         report = (lambda step, record, model=model, total=total: on_progress(model, step, total, record)) if on_progress else None
         results[model] = run_stage(stage, stage_settings, checkpoint, on_progress=report)
         record_stage(checkpoint, skill, model, stage_settings, results[model], {**digests, "train_transitions": len(stage_train), "validation_transitions": len(validation)})
     return results
+
+
+def _check_same_q_network(directory: Path, q_network: str) -> None:
+    """Fine-tuning keeps the Q-ensemble's network.
+
+    Raises:
+        T2MError: the starting checkpoint holds the other network, with the flag that matches it.
+    """
+    from t2m_skills_tableenv.checkpoints import read_config
+
+    kind = read_config(directory).get("models", {}).get("q", {}).get("architecture", {}).get("type", "QEnsemble")
+    starting = "relational" if kind == "RelationalQEnsemble" else "mlp"
+    if starting != q_network:
+        raise T2MError(
+            f"{directory} holds a {starting} Q-ensemble and the settings train a {q_network} one",
+            f"fine-tune it with --q-network {starting}, or train a {q_network} ensemble without --init-from",
+        )
 
 
 def _with_overrides(settings: StageSettings, overrides: dict[str, Any]) -> StageSettings:

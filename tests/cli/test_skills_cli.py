@@ -123,6 +123,27 @@ def test_init_from_starts_training_from_another_checkpoints_weights(dataset, tmp
     assert missing.exit_code != 0 and "no pick checkpoint" in missing.output
 
 
+def test_a_relational_ensemble_is_trained_loaded_and_fine_tuned_only_as_one(dataset, tmp_path) -> None:
+    from t2m_skills_tableenv.checkpoints import load_q
+    from t2m_skills_tableenv.networks import RelationalQEnsemble
+
+    base = tmp_path / "base"
+    common = ["--skill", "pick", "--model", "q", "--data", str(dataset), "--steps", "2", "--eval-every", "1"]
+    result = runner.invoke(app, ["train", *common, "--q-network", "relational", "--out", str(base)])
+    assert result.exit_code == 0, result.output
+    architecture = json.loads((base / "pick" / "config.json").read_text())["models"]["q"]["architecture"]
+    assert architecture["type"] == "RelationalQEnsemble" and architecture["context_rows"] == 2  # end effector + the picked object
+    assert isinstance(load_q(base / "pick"), RelationalQEnsemble)
+    mixed = runner.invoke(app, ["train", *common, "--init-from", str(base), "--out", str(tmp_path / "mixed")])
+    assert mixed.exit_code != 0
+    assert "holds a relational Q-ensemble and the settings train a mlp one" in mixed.output and "--q-network relational" in mixed.output
+    assert not (tmp_path / "mixed" / "pick" / "q_ensemble.safetensors").exists()
+    tuned = runner.invoke(app, ["train", *common, "--q-network", "relational", "--init-from", str(base), "--out", str(tmp_path / "tuned")])
+    assert tuned.exit_code == 0, tuned.output
+    unknown = runner.invoke(app, ["train", *common, "--q-network", "transformer", "--out", str(tmp_path / "x")])
+    assert unknown.exit_code != 0 and "q_network" in unknown.output
+
+
 def test_task_scenes_without_the_proposal_sampler_are_a_clear_error(tmp_path) -> None:
     result = runner.invoke(app, ["datagen", "--skill", "place", "--split", "train", "--size", "4", "--scenes", "tasks", "--out", str(tmp_path)])
     assert result.exit_code != 0
