@@ -70,6 +70,15 @@ def read_config(directory: Path) -> dict[str, Any]:
     return config
 
 
+def q_architecture_of(directory: Path) -> dict[str, Any]:
+    """``models.q.architecture`` of the skill checkpoint ``directory``'s config (``{}``: none recorded).
+
+    Raises:
+        CheckpointError: a missing or broken config.
+    """
+    return read_config(directory).get("models", {}).get("q", {}).get("architecture", {})
+
+
 def load_q(directory: Path) -> nn.Module:
     """The Q-ensemble of the skill checkpoint ``directory``, built as its ``config.json`` says
     (the MLP when the config names no architecture).
@@ -80,8 +89,7 @@ def load_q(directory: Path) -> nn.Module:
     from t2m_skills_tableenv.networks import build_q
 
     directory = Path(directory)
-    config = read_config(directory)
-    architecture = config.get("models", {}).get("q", {}).get("architecture", {})
+    architecture = q_architecture_of(directory)
     try:
         network = build_q(architecture)
     except (ValueError, KeyError, TypeError) as error:

@@ -25,6 +25,10 @@ STATE_DIM = 96
 ACTION_DIM = 4
 HIDDEN = (256, 256)
 ENSEMBLE_SIZE = 8
+RELATIONAL_WIDTH = 128
+"""Width of the relational Q-ensemble's layers."""
+Q_NETWORKS: dict[str, str] = {"mlp": "QEnsemble", "relational": "RelationalQEnsemble"}
+"""``t2m train --q-network`` name -> the architecture ``type`` a checkpoint's config records."""
 LOG_STD_MIN, LOG_STD_MAX = -5.0, 2.0
 
 
@@ -97,7 +101,7 @@ class RelationalQEnsemble(nn.Module):
     :class:`QEnsemble`; so does ``((B, N, 96), (B, N, 4))``.
     """
 
-    def __init__(self, context_rows: int, members: int = ENSEMBLE_SIZE, width: int = 128) -> None:
+    def __init__(self, context_rows: int, members: int = ENSEMBLE_SIZE, width: int = RELATIONAL_WIDTH) -> None:
         super().__init__()
         if not 1 <= context_rows < OBSERVATION_ROWS:
             raise ValueError(f"context_rows must be in [1, {OBSERVATION_ROWS - 1}], got {context_rows}")
@@ -116,6 +120,8 @@ class RelationalQEnsemble(nn.Module):
 
     def forward(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
         """Logits ``(N, B)``."""
+        # (N, K, 1) when every member reads the same states, (B, N, K, 1) otherwise: computed once per sample
+        absent = self._absent(states)
         if states.dim() == 2:
             states = states.unsqueeze(0).expand(self.members, -1, -1)
             actions = actions.unsqueeze(0).expand(self.members, -1, -1)
@@ -124,7 +130,6 @@ class RelationalQEnsemble(nn.Module):
         context = torch.cat((rows[:, :, : self.context_rows].reshape(members, count, -1), actions), dim=-1)
         others = rows[:, :, self.context_rows :]  # (B, N, K, 12)
         objects = others.shape[2]
-        absent = torch.isclose(others, self.empty_row, atol=1e-6).all(dim=-1, keepdim=True)  # (B, N, K, 1)
         shared = torch.baddbmm(self.phi_b1, context, self.phi_context_w)  # (B, N, W)
         hidden = torch.bmm(others.reshape(members, count * objects, ROW_FEATURES), self.phi_object_w)
         hidden = hidden.view(members, count, objects, -1).add_(shared.unsqueeze(2)).relu_()
@@ -134,6 +139,11 @@ class RelationalQEnsemble(nn.Module):
         x = torch.baddbmm(self.rho_b1, context, self.rho_context_w).baddbmm_(pooled, self.rho_pooled_w).relu_()
         x = torch.baddbmm(self.rho_b2, x, self.rho_w2).relu_()
         return torch.baddbmm(self.out_b, x, self.out_w).squeeze(-1).T
+
+    def _absent(self, states: torch.Tensor) -> torch.Tensor:
+        """``(..., K, 1)`` whether each non-argument row of ``(..., 96)`` states is all zero in raw units."""
+        others = states.reshape(*states.shape[:-1], OBSERVATION_ROWS, ROW_FEATURES)[..., self.context_rows :, :]
+        return torch.isclose(others, self.empty_row, atol=1e-6).all(dim=-1, keepdim=True)
 
     def flops_per_sample(self) -> int:
         """Floating-point operations (2 × multiply-adds) of all members for one (state, action),
@@ -153,11 +163,12 @@ def q_architecture(skill: str, network: str) -> dict[str, Any]:
     """The ``config.json`` architecture of ``skill``'s Q-ensemble of kind ``network`` (``"mlp"`` or
     ``"relational"``; the relational network's context is the end effector and the skill's arguments)."""
     if network == "mlp":
-        return {"type": "QEnsemble", "members": ENSEMBLE_SIZE, "input": 100, "hidden": list(HIDDEN), "output": "sigmoid", "loss": "bce"}
+        return {"type": Q_NETWORKS["mlp"], "members": ENSEMBLE_SIZE, "input": 100, "hidden": list(HIDDEN), "output": "sigmoid", "loss": "bce"}
     from t2m_core.domain.primitives import get_primitive
 
     context_rows = 1 + len(get_primitive(skill).argument_kinds)
-    return {"type": "RelationalQEnsemble", "members": ENSEMBLE_SIZE, "input": 100, "context_rows": context_rows, "width": 128, "pooling": "max", "output": "sigmoid", "loss": "bce"}
+    return {"type": Q_NETWORKS["relational"], "members": ENSEMBLE_SIZE, "input": 100, "context_rows": context_rows,
+            "width": RELATIONAL_WIDTH, "pooling": "max", "output": "sigmoid", "loss": "bce"}
 
 
 def build_q(architecture: dict[str, Any]) -> QEnsemble | RelationalQEnsemble:
@@ -166,12 +177,19 @@ def build_q(architecture: dict[str, Any]) -> QEnsemble | RelationalQEnsemble:
     Raises:
         ValueError: an architecture type this library does not know.
     """
-    kind = architecture.get("type", "QEnsemble")
-    if kind == "QEnsemble":
-        return QEnsemble(members=int(architecture.get("members", 8)), hidden=tuple(architecture.get("hidden", (256, 256))))
-    if kind == "RelationalQEnsemble":
-        return RelationalQEnsemble(int(architecture["context_rows"]), members=int(architecture.get("members", 8)), width=int(architecture.get("width", 128)))
-    raise ValueError(f"unknown Q-ensemble type {kind!r} (known: QEnsemble, RelationalQEnsemble)")
+    kind = architecture.get("type", Q_NETWORKS["mlp"])
+    members = int(architecture.get("members", ENSEMBLE_SIZE))
+    if kind == Q_NETWORKS["mlp"]:
+        return QEnsemble(members=members, hidden=tuple(architecture.get("hidden", HIDDEN)))
+    if kind == Q_NETWORKS["relational"]:
+        return RelationalQEnsemble(int(architecture["context_rows"]), members=members, width=int(architecture.get("width", RELATIONAL_WIDTH)))
+    raise ValueError(f"unknown Q-ensemble type {kind!r} (known: {', '.join(Q_NETWORKS.values())})")
+
+
+def q_network_name(architecture: dict[str, Any]) -> str:
+    """The ``--q-network`` name of a checkpoint's Q architecture (``"mlp"`` when it names none)."""
+    kind = architecture.get("type", Q_NETWORKS["mlp"])
+    return next((name for name, recorded in Q_NETWORKS.items() if recorded == kind), kind)
 
 
 def mlp(sizes: tuple[int, ...]) -> nn.Sequential:

@@ -495,10 +495,10 @@ def _check_same_q_network(directory: Path, q_network: str) -> None:
     Raises:
         T2MError: the starting checkpoint holds the other network, with the flag that matches it.
     """
-    from t2m_skills_tableenv.checkpoints import read_config
+    from t2m_skills_tableenv.checkpoints import q_architecture_of
+    from t2m_skills_tableenv.networks import q_network_name
 
-    kind = read_config(directory).get("models", {}).get("q", {}).get("architecture", {}).get("type", "QEnsemble")
-    starting = "relational" if kind == "RelationalQEnsemble" else "mlp"
+    starting = q_network_name(q_architecture_of(directory))
     if starting != q_network:
         raise T2MError(
             f"{directory} holds a {starting} Q-ensemble and the settings train a {q_network} one",
