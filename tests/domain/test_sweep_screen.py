@@ -168,12 +168,23 @@ def test_screened_sampler_falls_back_to_the_heuristic_when_nothing_passes() -> N
     np.testing.assert_array_equal(physical, expected)  # the last heuristic draw (no uniform one passed)
 
 
+def test_screened_pick_grasps_a_square_box_across_either_face_pair() -> None:
+    state = scene(red_box=on_table("red_box", 0.5, 0.0), hook=on_table("hook", 0.4, 0.3))
+    rng = np.random.default_rng(1)
+    grasps = np.array([PICK.screened_physical(state, ["red_box"], rng) for _ in range(400)])
+    np.testing.assert_array_equal(grasps[:, :3], 0.0)  # still the centred grasp
+    assert set(np.round(grasps[:, 3], 6)) == {0.0, round(0.5 * math.pi, 6)}
+    assert 150 < np.sum(grasps[:, 3] > 0) < 250  # about half across the other faces
+    # The hook is not square: its grasps stay the reference heuristic's, draw for draw.
+    for seed in range(20):
+        np.testing.assert_array_equal(
+            PICK.screened_action(state, ["hook"], np.random.default_rng(seed)),
+            PICK.heuristic_action(state, ["hook"], np.random.default_rng(seed)),
+        )
+
+
 def test_primitives_without_a_screen_use_the_heuristic() -> None:
-    state = scene(red_box=on_table("red_box", 0.5, 0.0))
-    np.testing.assert_array_equal(
-        PICK.screened_action(state, ["red_box"], np.random.default_rng(1)),
-        PICK.heuristic_action(state, ["red_box"], np.random.default_rng(1)),
-    )
+    state = scene(red_box=on_table("red_box", 0.5, 0.0), hook=on_table("hook", 0.4, 0.3))
     for _ in range(50):
         action = PUSH.screened_exploration_action(PUSH_SCENE, PUSH_ARGS, np.random.default_rng(_))
         assert action.shape == (4,) and np.all(np.abs(action) <= 1.0)

@@ -77,3 +77,17 @@ class Pick(Primitive):
         if rng.random() < hook.handle_length / (hook.handle_length + hook.head_length):
             return np.array([rng.uniform(self.action_low[0], self.action_high[0]), handle.center[1], 0.0, 0.0])
         return np.array([head.center[0], rng.uniform(self.action_low[1], self.action_high[1]), 0.0, 0.5 * np.pi])
+
+    def screened_physical(self, state: GeometricState, arguments: Sequence[str], rng: np.random.Generator) -> np.ndarray:
+        """The data-generation grasp: the heuristic's, except that a box with a square footprint is
+        grasped across either pair of its faces, θ = 0 or θ = π/2 with equal probability.
+
+        A deviation for data generation only (the reference heuristic stays :meth:`heuristic_physical`,
+        θ = 0): beside the rack's plate the θ = 0 fingers hit the plate and only θ ≈ π/2 grasps succeed
+        (docs/guide/deviations.md#box-grasps-across-both-face-pairs), and data drawn around θ = 0 never
+        shows a model that they do."""
+        action = self.heuristic_physical(state, arguments, rng)
+        spec = object_spec(arguments[0])
+        if spec.kind is ObjectKind.BOX and spec.size[0] == spec.size[1] and rng.random() < 0.5:
+            action[3] = 0.5 * np.pi
+        return action
