@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import sys
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -15,7 +17,10 @@ class LocalExecutor(Executor):
     """``workers`` processes of this machine; with one worker, tasks run in this process.
 
     A worker process that dies (killed, out of memory) breaks the whole pool: the pool is rebuilt
-    and every task that was in it runs again, each at most ``max_retries`` more times.
+    and every task that was in it runs again, each at most ``max_retries`` more times. Each pool
+    worker gets an equal share of this machine's cores for its math libraries
+    (:func:`worker_threads`), so that the workers' torch and BLAS thread pools do not oversubscribe
+    the cores.
     """
 
     name = "local"
@@ -44,7 +49,7 @@ class LocalExecutor(Executor):
         pending = deque(range(len(items)))
         deaths = [0] * len(items)
         running: dict[Future, int] = {}
-        pool = ProcessPoolExecutor(max_workers=self.workers)
+        pool = self._pool()
         try:
             while running or (pending and tracker.accepting):
                 # two tasks per worker in flight: a worker never waits for the driver between tasks
@@ -70,7 +75,7 @@ class LocalExecutor(Executor):
                     lost += running.values()
                     running.clear()
                     pool.shutdown(wait=True, cancel_futures=True)
-                    pool = ProcessPoolExecutor(max_workers=self.workers)
+                    pool = self._pool()
                     for index in sorted(lost, reverse=True):
                         deaths[index] += 1
                         if deaths[index] > self.max_retries:
@@ -80,6 +85,27 @@ class LocalExecutor(Executor):
                             tracker.retried()
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
+
+
+    def _pool(self) -> ProcessPoolExecutor:
+        threads = worker_threads(self.workers)
+        return ProcessPoolExecutor(max_workers=self.workers, initializer=_limit_threads, initargs=(threads,))
+
+
+def worker_threads(workers: int, cores: int | None = None) -> int:
+    """Math-library threads per worker process: this machine's cores (``cores``; default
+    ``os.cpu_count()``) shared equally among ``workers``, at least one."""
+    return max(1, (cores or os.cpu_count() or 1) // workers)
+
+
+def _limit_threads(threads: int) -> None:
+    """Pool-worker initialiser: at most ``threads`` OpenMP/BLAS threads, and as many torch threads
+    when torch is already loaded (a forked worker inherits the parent's pool size)."""
+    for name in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+        os.environ[name] = str(threads)
+    torch = sys.modules.get("torch")
+    if torch is not None:
+        torch.set_num_threads(threads)
 
 
 def _in_this_process(function: Callable[[Item], Result], items: Sequence[Item], tracker: TaskTracker) -> Iterator[tuple[Item, Result]]:

@@ -15,6 +15,7 @@ from typer.testing import CliRunner
 from t2m_core.cli.main import app
 from t2m_core.errors import T2MError
 from t2m_core.executors import LocalExecutor, TaskCounts, make_executor
+from t2m_core.executors.local import worker_threads
 
 ROOT = Path(__file__).parents[2]
 
@@ -36,6 +37,12 @@ def square_dying_once(item: tuple[int, str]) -> int:
     return value * value
 
 
+def torch_threads(item: int) -> tuple[int, str | None]:
+    import torch
+
+    return torch.get_num_threads(), os.environ.get("OMP_NUM_THREADS")
+
+
 def fail_on_two(item: int) -> int:
     if item == 2:
         raise ValueError("no square for two")
@@ -50,6 +57,15 @@ def test_every_item_comes_back_with_its_result(workers: int) -> None:
     assert results == {i: i * i for i in range(6)}
     assert seen[-1] == TaskCounts(total=6, done=6, running=0)
     assert max(counts.running for counts in seen) == workers
+
+
+def test_pool_workers_share_the_cores_among_their_math_threads() -> None:
+    assert [worker_threads(w, cores=8) for w in (1, 2, 3, 8, 16)] == [8, 4, 2, 1, 1]
+    import torch  # loaded in the parent: forked workers inherit its thread count unless told
+
+    results = dict(LocalExecutor(2).map(torch_threads, [0, 1, 2, 3]))
+    expected = worker_threads(2)
+    assert set(results.values()) == {(expected, str(expected))}
 
 
 def test_a_task_whose_worker_dies_runs_again_and_the_others_are_kept(tmp_path) -> None:
