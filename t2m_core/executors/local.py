@@ -86,10 +86,9 @@ class LocalExecutor(Executor):
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
 
-
     def _pool(self) -> ProcessPoolExecutor:
-        threads = worker_threads(self.workers)
-        return ProcessPoolExecutor(max_workers=self.workers, initializer=_limit_threads, initargs=(threads,))
+        """A fresh pool whose workers each get their :func:`worker_threads` share of the cores."""
+        return ProcessPoolExecutor(max_workers=self.workers, initializer=_limit_threads, initargs=(worker_threads(self.workers),))
 
 
 def worker_threads(workers: int, cores: int | None = None) -> int:

@@ -17,7 +17,7 @@ from t2m_core.domain.state import GeometricState
 from tests.domain.scenes import RACK_BEYOND, on_table, scene
 from tests.domain.sweep_screen_reference import reference_screen
 
-PICK, PULL, PUSH = (PRIMITIVES[n] for n in ("pick", "pull", "push"))
+PICK, PLACE, PULL, PUSH = (PRIMITIVES[n] for n in ("pick", "place", "pull", "push"))
 THETA = math.pi / 8
 PULL_ARGS = ("blue_box", "hook")
 PUSH_ARGS = ("blue_box", "hook", "rack")
@@ -184,7 +184,12 @@ def test_screened_pick_grasps_a_square_box_across_either_face_pair() -> None:
 
 
 def test_primitives_without_a_screen_use_the_heuristic() -> None:
-    state = scene(red_box=on_table("red_box", 0.5, 0.0), hook=on_table("hook", 0.4, 0.3))
+    state = scene(red_box=on_table("red_box", 0.5, 0.0))
+    for seed in range(20):
+        np.testing.assert_array_equal(
+            PLACE.screened_action(state, ["red_box", "table"], np.random.default_rng(seed)),
+            PLACE.heuristic_action(state, ["red_box", "table"], np.random.default_rng(seed)),
+        )
     for _ in range(50):
         action = PUSH.screened_exploration_action(PUSH_SCENE, PUSH_ARGS, np.random.default_rng(_))
         assert action.shape == (4,) and np.all(np.abs(action) <= 1.0)
