@@ -41,6 +41,11 @@ def datagen(
         typer.Option("--scenes", help="Where transitions start: data (enumerated symbolic states, default), tasks (states reached along "
                      "the task suite's reference skeletons; needs --sampler proposal) or tasks:ID,ID (those tasks' skeletons only)."),
     ] = "data",
+    skeleton: Annotated[
+        str | None,
+        typer.Option("--skeleton", help='With --scenes tasks:ID (one task): roll out this skill sequence instead of the reference one, '
+                     'e.g. "pick(hook), pull(blue_box, hook), place(hook, table)" (another order a planner may choose).'),
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the manifests as JSON on stdout.")] = False,
 ) -> None:
     """Generate (or finish generating) a split of skill data: simulated transitions of symbolically
@@ -65,6 +70,10 @@ def datagen(
         raise T2MError("--scenes tasks advances along the skeletons with a skill library's proposals", "add --sampler proposal")
     if proposal_checkpoints is not None and sampler != "proposal":
         raise T2MError("--proposal-checkpoints is for the proposal sampler", "add --sampler proposal, or drop --proposal-checkpoints")
+    if skeleton is not None:
+        from t2m_core.domain.skills import parse_skeleton
+
+        skeleton = ", ".join(str(call) for call in parse_skeleton(skeleton))  # canonical spacing: the same order, the same dataset
     proposal_directory = _proposal_directory(proposal_library, proposal_checkpoints) if sampler == "proposal" and split != "invalid" else None
     ensure_writable_directory(out)
     manifests = {}
@@ -75,7 +84,7 @@ def datagen(
                 digest = library_digest(proposal_directory, DATA_SKILLS) if scenes != "data" else checkpoint_digest(proposal_directory, name)
                 proposal = ProposalSource(proposal_library, str(proposal_directory), digest)
             job = DatasetJob(out.resolve(), name, split, size, chunk_size, seed, sampler, sim, actions_per_scene=actions_per_scene, proposal=proposal,
-                             scenes=scenes)
+                             scenes=scenes, skeleton=skeleton)
             manifests[name] = _run_with_progress(job, pool, generate_dataset)
     if as_json:
         typer.echo(json.dumps(manifests, indent=2))

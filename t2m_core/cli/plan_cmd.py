@@ -10,7 +10,6 @@ from typing import Annotated, Any
 import typer
 
 from t2m_core.atomic_files import ensure_writable_directory
-from t2m_core.errors import T2MError
 
 
 def plan(
@@ -32,7 +31,7 @@ def plan(
 
     from t2m_core.components import build_component
     from t2m_core.config.resolve import resolve_config
-    from t2m_core.domain.skills import parse_skill_sequence
+    from t2m_core.domain.skills import parse_skeleton
     from t2m_core.registry import get_registry
     from t2m_core.tasks import load_task
 
@@ -41,7 +40,7 @@ def plan(
     extra = [f"feasibility_planner.name={feasibility}"] if feasibility else []
     config = resolve_config(config_files or (), flags=flags, overrides=[*extra, *(overrides or [])], registry=get_registry())
     task = load_task(config.task)
-    calls = parse_skill_sequence(f"[{_quoted(skeleton)}]", task.objects)
+    calls = parse_skeleton(skeleton, task.objects)
     if out is not None:
         ensure_writable_directory(out)
     simulator = build_component(config, "simulator")
@@ -68,23 +67,6 @@ def plan(
         typer.echo(json.dumps(report, indent=2))
     if execute and not report["execution"]["success"]:
         raise typer.Exit(1)
-
-
-def _quoted(skeleton: str) -> str:
-    """``pick(hook), pull(a, hook)`` → ``'pick(hook)', 'pull(a, hook)'`` (calls split at top-level commas)."""
-    calls, depth, current = [], 0, ""
-    for char in skeleton:
-        depth += (char == "(") - (char == ")")
-        if char == "," and depth == 0:
-            calls.append(current.strip())
-            current = ""
-        else:
-            current += char
-    if current.strip():
-        calls.append(current.strip())
-    if not calls:
-        raise T2MError("empty --skeleton", 'write e.g. --skeleton "pick(hook), pull(blue_box, hook)"')
-    return ", ".join(repr(c) for c in calls)
 
 
 def _plan_rows(calls, plan) -> list[dict[str, Any]]:

@@ -26,11 +26,12 @@ from t2m_core.data.records import (
     failure_code,
     name_indices,
 )
-from t2m_core.data.rollouts import parse_rollout_tasks, rollout_tasks, task_rollout_rows
+from t2m_core.data.rollouts import parse_rollout_tasks, rollout_skeleton, rollout_tasks, shipped_tasks, task_rollout_rows
 from t2m_core.data.scenes import DATA_SKILLS, DataTask, draw_data_task
 from t2m_core.domain.geometry import quat_multiply, rotate, yaw_to_quat
 from t2m_core.domain.observation import MAX_OBJECTS, argument_first_order, encode_observation
 from t2m_core.domain.primitives import Primitive, get_primitive
+from t2m_core.domain.skills import SkillError
 from t2m_core.domain.sampling import SamplingError, sample_initial_state
 from t2m_core.domain.state import GeometricState, ObjectPose
 from t2m_core.errors import T2MError
@@ -95,6 +96,9 @@ class ChunkSpec:
             the chunk's content depends on; the directory does not; with task scenes,
             :func:`~t2m_core.data.proposals.library_digest` of every skill's).
         scenes: where simulated transitions start (a name of :data:`SCENES`).
+        skeleton: with task scenes of one task (``tasks:ID``), the skill sequence the rollouts walk
+            instead of its reference skeleton, canonical text (``"pick(hook), pull(blue_box,
+            hook)"``): another order a planner may choose (docs/guide/skills.md#other-orders).
     """
 
     skill: str
@@ -106,6 +110,7 @@ class ChunkSpec:
     actions_per_scene: int = 1
     proposal: ProposalSource | None = None
     scenes: str = "data"
+    skeleton: str | None = None
 
     def __post_init__(self) -> None:
         if self.skill not in DATA_SKILLS:
@@ -116,7 +121,9 @@ class ChunkSpec:
             raise DataGenerationError(f"unknown action sampler {self.sampler!r}", f"use one of: {', '.join(SAMPLERS)}")
         if (self.sampler == "proposal") != (self.proposal is not None) and self.simulated:
             raise DataGenerationError("the proposal sampler, and only it, needs a proposal skill library", "give --proposal-checkpoints with --sampler proposal")
-        if self.scenes != "data":
+        if self.skeleton is not None:
+            self._check_skeleton()
+        elif self.scenes != "data":
             self._check_rollout_tasks()
         if self.scenes != "data" and (self.sampler != "proposal" or not self.simulated):
             raise DataGenerationError("task-rollout scenes need the proposal sampler (it advances along the skeletons) and a simulated split",
@@ -131,6 +138,19 @@ class ChunkSpec:
             raise DataGenerationError(f"unknown scene source {self.scenes!r}: {error}", "use data, tasks, or tasks:ID,ID (e.g. tasks:task0,task2)") from None
         if not tasks:
             raise DataGenerationError(f"no task of {self.scenes!r} calls {self.skill} in its reference skeleton", "name tasks whose plans use the skill")
+
+    def _check_skeleton(self) -> None:
+        ids = parse_rollout_tasks(self.scenes) if self.scenes != "data" else None
+        if ids is None or len(ids) != 1:
+            raise DataGenerationError(f"a rollout skeleton needs the scenes of one task, not {self.scenes!r}", "add --scenes tasks:ID (e.g. tasks:task3)")
+        try:
+            calls = rollout_skeleton(shipped_tasks(ids)[0], self.skeleton)
+        except ValueError as error:
+            raise DataGenerationError(f"unknown scene source {self.scenes!r}: {error}", "use tasks:ID with a shipped task id") from None
+        except SkillError as error:
+            raise DataGenerationError(f"rollout skeleton for {ids[0]}: {error.message}", error.hint) from None
+        if self.skill not in [call.name for call in calls]:
+            raise DataGenerationError(f"the rollout skeleton {self.skeleton!r} never calls {self.skill}", f"give a skeleton that calls {self.skill}")
 
     @property
     def filename(self) -> str:
@@ -164,6 +184,8 @@ class ChunkSpec:
             header["proposal"] = self.proposal.identity()
         if self.scenes != "data":
             header["scenes"] = self.scenes
+        if self.skeleton is not None:
+            header["skeleton"] = self.skeleton
         return header
 
 

@@ -63,6 +63,7 @@ class DatasetJob:
         simulator: simulator plugin name; ``simulator_options`` its options.
         proposal: the skill library of the ``proposal`` sampler (see :class:`ChunkSpec`).
         scenes: where simulated transitions start (see :class:`ChunkSpec`).
+        skeleton: the skill sequence task rollouts walk instead of the reference (see :class:`ChunkSpec`).
     """
 
     out: Path
@@ -77,6 +78,7 @@ class DatasetJob:
     actions_per_scene: int = 1
     proposal: ProposalSource | None = None
     scenes: str = "data"
+    skeleton: str | None = None
 
     @property
     def directory(self) -> Path:
@@ -97,6 +99,7 @@ class DatasetJob:
                 self.actions_per_scene,
                 self.proposal if self.split != "invalid" else None,
                 self.scenes if self.split != "invalid" else "data",
+                self.skeleton if self.split != "invalid" else None,
             )
             for index in range(count)
         ]
@@ -116,6 +119,8 @@ class DatasetJob:
         }
         if simulated and self.proposal is not None:
             settings["proposal"] = self.proposal.identity()
+        if simulated and self.skeleton is not None:
+            settings["skeleton"] = self.skeleton
         return settings
 
     def shard_header(self, spec: ChunkSpec) -> dict[str, Any]:
@@ -212,8 +217,9 @@ def _require_same_dataset(job: DatasetJob) -> None:
         manifest = json.loads(path.read_text(encoding="utf-8"))
     except ValueError:
         return  # the manifest is rewritten from the shards at the end
-    wanted = job.settings()
+    wanted = {"skeleton": None, **job.settings()}
     recorded = {key: manifest[key] for key in wanted if key in manifest}
+    recorded.setdefault("skeleton", None)  # reference skeletons, or no rollouts
     if job.split != "invalid":
         recorded.setdefault("actions_per_scene", 1)  # manifests older than the setting: one action per scene
     recorded.setdefault("scenes", "data")  # manifests older than task rollouts
@@ -238,7 +244,7 @@ def _existing_header(job: DatasetJob, spec: ChunkSpec) -> dict[str, Any] | None:
     expected = job.shard_header(spec)
     if any(header.get(key) != value for key, value in expected.items()) or header.get("count") != spec.size:
         return None
-    if header.get("scenes", "data") != spec.scenes:
+    if header.get("scenes", "data") != spec.scenes or header.get("skeleton") != spec.skeleton:
         return None
     return header
 

@@ -26,6 +26,7 @@ import numpy as np
 from t2m_core.data.proposals import ProposalSampler, library_digest, load_proposal_library
 from t2m_core.domain.primitives import get_primitive
 from t2m_core.domain.sampling import SamplingError
+from t2m_core.domain.skills import SkillCall, parse_skeleton, validate_skill_call
 
 if TYPE_CHECKING:
     from t2m_core.data.chunks import ChunkSpec, ChunkStats
@@ -66,8 +67,8 @@ def parse_rollout_tasks(scenes: str) -> tuple[str, ...] | None:
 
 
 @lru_cache(maxsize=32)
-def rollout_tasks(skill: str, ids: tuple[str, ...] | None = None) -> tuple[Task, ...]:
-    """The shipped tasks (all, or those with ``ids``) whose reference skeleton calls ``skill``, in id order.
+def shipped_tasks(ids: tuple[str, ...] | None = None) -> tuple[Task, ...]:
+    """The shipped tasks (all, or those with ``ids``), in id order.
 
     Raises:
         ValueError: an id that is not a shipped task.
@@ -80,7 +81,29 @@ def rollout_tasks(skill: str, ids: tuple[str, ...] | None = None) -> tuple[Task,
         if unknown:
             raise ValueError(f"no shipped task {', '.join(unknown)} (the tasks are {', '.join(t.id for t in tasks)})")
         tasks = tuple(task for task in tasks if task.id in ids)
-    return tuple(task for task in tasks if any(call.name == skill for call in task.reference_skeleton))
+    return tasks
+
+
+def rollout_tasks(skill: str, ids: tuple[str, ...] | None = None) -> tuple[Task, ...]:
+    """The shipped tasks (all, or those with ``ids``) whose reference skeleton calls ``skill``, in id order.
+
+    Raises:
+        ValueError: an id that is not a shipped task.
+    """
+    return tuple(task for task in shipped_tasks(ids) if any(call.name == skill for call in task.reference_skeleton))
+
+
+def rollout_skeleton(task: Task, text: str) -> tuple[SkillCall, ...]:
+    """``text`` (``"pick(hook), pull(blue_box, hook)"``) as skill calls of ``task``'s objects, argument
+    types checked.
+
+    Raises:
+        SkillError: naming the entry and the problem.
+    """
+    calls = parse_skeleton(text, task.objects)
+    for call in calls:
+        validate_skill_call(call, task.objects)
+    return calls
 
 
 def rollout_library(spec: ChunkSpec, skills: tuple[str, ...]) -> dict[str, Any]:
@@ -105,8 +128,11 @@ def task_rollout_rows(
         make_row: builds a row from ``(objects, arguments, symbolic_state, scene_seed, observation,
             action, next_observation, success, truncated, failure)``.
     """
-    tasks = rollout_tasks(spec.skill, parse_rollout_tasks(spec.scenes))
-    task = tasks[int(rng.integers(len(tasks)))]
+    if spec.skeleton is None:
+        tasks = rollout_tasks(spec.skill, parse_rollout_tasks(spec.scenes))
+        task = tasks[int(rng.integers(len(tasks)))]
+    else:
+        (task,) = shipped_tasks(parse_rollout_tasks(spec.scenes))
     scene_seed = int(rng.integers(TASK_SEED_FLOOR, 2**31 - 1))
     started = time.perf_counter()
     try:
@@ -120,7 +146,7 @@ def task_rollout_rows(
     stats.reset_rejections += reset.rejections
     library = rollout_library(spec, skills)
     objects = tuple(reset.state.object_names)
-    skeleton = task.reference_skeleton
+    skeleton = task.reference_skeleton if spec.skeleton is None else rollout_skeleton(task, spec.skeleton)
     last = max(i for i, call in enumerate(skeleton) if call.name == spec.skill)
     for index, call in enumerate(skeleton[: last + 1]):
         sampler = ProposalSampler(get_primitive(call.name), library[call.name])

@@ -187,6 +187,28 @@ def parse_skill_sequence(
     return tuple(calls)
 
 
+def parse_skeleton(text: str, object_names: Sequence[str] | None = None) -> tuple[SkillCall, ...]:
+    """Parse a skeleton as people type it, ``"pick(hook), pull(blue_box, hook)"``: calls unquoted,
+    split at the commas outside parentheses.
+
+    Raises:
+        SkillError: an empty skeleton, or an entry that :func:`parse_skill_call` refuses.
+    """
+    calls, depth, current = [], 0, ""
+    for char in text:
+        depth += (char == "(") - (char == ")")
+        if char == "," and depth == 0:
+            calls.append(current.strip())
+            current = ""
+        else:
+            current += char
+    calls.append(current.strip())
+    calls = [c for c in calls if c]
+    if not calls:
+        raise SkillError("empty skeleton", 'write e.g. "pick(hook), pull(blue_box, hook)"')
+    return parse_skill_sequence(format_string_list(calls), object_names)
+
+
 def format_skill_sequence(calls: Iterable[SkillCall]) -> str:
     """``['pick(a)', 'place(a, b)']``, as the prompts write it."""
     return format_string_list([str(c) for c in calls])

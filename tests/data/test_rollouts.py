@@ -99,3 +99,55 @@ def test_rollouts_can_be_restricted_to_named_tasks(shipped) -> None:
         ChunkSpec("place", "train", 0, 4, sampler="proposal", proposal=shipped, scenes="tasks:task9")
     with pytest.raises(DataGenerationError, match="calls pull"):
         ChunkSpec("pull", "train", 0, 4, sampler="proposal", proposal=shipped, scenes="tasks:task0,task1")
+
+
+def _position(observation: np.ndarray, names: tuple[str, ...], name: str) -> np.ndarray:
+    """``(3,)`` the object's position in an ``(8, 12)`` observation whose rows 1.. are ``names``."""
+    return observation[1 + names.index(name), :3]
+
+
+def test_a_rollout_can_walk_another_order_of_a_task(shipped) -> None:
+    # task3's reference moves the red box first; a planner may pull the blue box while red is still
+    # on the table, so the pulls of this order start with red where the reset put it
+    order = "pick(hook), pull(blue_box, hook), place(hook, table), pick(blue_box), place(blue_box, rack)"
+    spec = ChunkSpec("pull", "train", 0, 3, sampler="proposal", actions_per_scene=3, proposal=shipped, scenes="tasks:task3", skeleton=order)
+    simulator = get_registry().create("simulator", "mujoco")
+    rows, _ = generate_chunk(spec, simulator)
+    assert spec.header()["skeleton"] == order
+    task3 = rollout_tasks("pull", ("task3",))[0]
+    for row in range(len(rows)):
+        assert rows.argument_names(row) == ("blue_box", "hook")
+        reset = simulator.reset(task3, seed=int(rows.scene_seed[row]))
+        names = rows.object_names(row)
+        reset_names = tuple(reset.state.object_names)
+        np.testing.assert_allclose(_position(rows.observation[row], names, "red_box"),
+                                   _position(reset.observation, reset_names, "red_box"), atol=2e-3)
+        # the hook was picked first: it is not where the reset put it
+        assert not np.allclose(_position(rows.observation[row], names, "hook"), _position(reset.observation, reset_names, "hook"), atol=1e-2)
+
+
+def test_a_rollout_skeleton_is_checked_and_keeps_its_dataset_apart(tmp_path, shipped) -> None:
+    order = "pick(hook), pull(blue_box, hook)"
+    with pytest.raises(DataGenerationError, match="scenes of one task"):
+        ChunkSpec("pull", "train", 0, 4, sampler="proposal", proposal=shipped, scenes="tasks", skeleton=order)
+    with pytest.raises(DataGenerationError, match="never calls place"):
+        ChunkSpec("place", "train", 0, 4, sampler="proposal", proposal=shipped, scenes="tasks:task3", skeleton=order)
+    with pytest.raises(DataGenerationError, match="green_box"):
+        ChunkSpec("pull", "train", 0, 4, sampler="proposal", proposal=shipped, scenes="tasks:task3", skeleton="pick(hook), pull(green_box, hook)")
+    with pytest.raises(DataGenerationError, match="no shipped task task9"):
+        ChunkSpec("pull", "train", 0, 4, sampler="proposal", proposal=shipped, scenes="tasks:task9", skeleton=order)
+    # task1's reference never pulls (it pushes), but a skeleton of its objects may
+    ChunkSpec("pull", "train", 0, 4, sampler="proposal", proposal=shipped, scenes="tasks:task1", skeleton=order)
+    with pytest.raises(DataGenerationError, match="calls pull"):
+        ChunkSpec("pull", "train", 0, 4, sampler="proposal", proposal=shipped, scenes="tasks:task1")
+    reference = DatasetJob(tmp_path, "pull", "train", 2, chunk_size=2, sampler="proposal", actions_per_scene=2, proposal=shipped, scenes="tasks:task3")
+    from t2m_core.data.generate import make_chunk
+
+    make_chunk(reference, reference.chunks()[0])
+    write_manifest(reference)
+    other = DatasetJob(tmp_path, "pull", "train", 2, chunk_size=2, sampler="proposal", actions_per_scene=2, proposal=shipped, scenes="tasks:task3",
+                       skeleton=order)
+    assert other.chunks()[0].header()["skeleton"] == order
+    assert _existing_header(other, other.chunks()[0]) is None  # the reference order's shard is not this order's
+    with pytest.raises(DataGenerationError, match="skeleton None"):
+        _require_same_dataset(other)

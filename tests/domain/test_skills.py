@@ -13,6 +13,7 @@ from t2m_core.domain.skills import (
     check_argument_types,
     format_skill_sequence,
     parse_skill_call,
+    parse_skeleton,
     parse_skill_sequence,
     validate_skill_call,
 )
@@ -94,3 +95,12 @@ def test_skill_sequences_round_trip(sequence: list[SkillCall]) -> None:
 
 
 
+
+
+def test_parse_skeleton_splits_at_commas_outside_parentheses() -> None:
+    calls = parse_skeleton(" pick(hook),pull( blue_box, hook ) , place(hook, table),", SCENE)
+    assert calls == (SkillCall("pick", ("hook",)), SkillCall("pull", ("blue_box", "hook")), SkillCall("place", ("hook", "table")))
+    with pytest.raises(SkillError, match="empty skeleton"):
+        parse_skeleton(" , ")
+    with pytest.raises(SkillError, match="entry 2"):
+        parse_skeleton("pick(hook), pull(green_box, hook)", SCENE)
