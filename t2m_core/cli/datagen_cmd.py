@@ -76,16 +76,20 @@ def datagen(
         skeleton = ", ".join(str(call) for call in parse_skeleton(skeleton))  # canonical spacing: the same order, the same dataset
     proposal_directory = _proposal_directory(proposal_library, proposal_checkpoints) if sampler == "proposal" and split != "invalid" else None
     ensure_writable_directory(out)
+    jobs = []
+    for name in skills:
+        proposal = None
+        if proposal_directory is not None:
+            digest = library_digest(proposal_directory, DATA_SKILLS) if scenes != "data" else checkpoint_digest(proposal_directory, name)
+            proposal = ProposalSource(proposal_library, str(proposal_directory), digest)
+        job = DatasetJob(out.resolve(), name, split, size, chunk_size, seed, sampler, sim, actions_per_scene=actions_per_scene, proposal=proposal,
+                         scenes=scenes, skeleton=skeleton)
+        job.chunks()  # checks every setting (a task, a skeleton) before any work starts
+        jobs.append(job)
     manifests = {}
     with make_executor(executor, workers=workers or (default_workers() if executor == "local" else 0), address=address) as pool:
-        for name in skills:
-            proposal = None
-            if proposal_directory is not None:
-                digest = library_digest(proposal_directory, DATA_SKILLS) if scenes != "data" else checkpoint_digest(proposal_directory, name)
-                proposal = ProposalSource(proposal_library, str(proposal_directory), digest)
-            job = DatasetJob(out.resolve(), name, split, size, chunk_size, seed, sampler, sim, actions_per_scene=actions_per_scene, proposal=proposal,
-                             scenes=scenes, skeleton=skeleton)
-            manifests[name] = _run_with_progress(job, pool, generate_dataset)
+        for job in jobs:
+            manifests[job.skill] = _run_with_progress(job, pool, generate_dataset)
     if as_json:
         typer.echo(json.dumps(manifests, indent=2))
 

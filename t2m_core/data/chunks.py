@@ -144,11 +144,13 @@ class ChunkSpec:
         if ids is None or len(ids) != 1:
             raise DataGenerationError(f"a rollout skeleton needs the scenes of one task, not {self.scenes!r}", "add --scenes tasks:ID (e.g. tasks:task3)")
         try:
-            calls = rollout_skeleton(shipped_tasks(ids)[0], self.skeleton)
+            task = shipped_tasks(ids)[0]
         except ValueError as error:
             raise DataGenerationError(f"unknown scene source {self.scenes!r}: {error}", "use tasks:ID with a shipped task id") from None
+        try:
+            calls = rollout_skeleton(task, self.skeleton)
         except SkillError as error:
-            raise DataGenerationError(f"rollout skeleton for {ids[0]}: {error.message}", error.hint) from None
+            raise DataGenerationError(f"rollout skeleton for {task.id}: {error.message}", error.hint) from None
         if self.skill not in [call.name for call in calls]:
             raise DataGenerationError(f"the rollout skeleton {self.skeleton!r} never calls {self.skill}", f"give a skeleton that calls {self.skill}")
 

@@ -151,3 +151,18 @@ def test_task_scenes_without_the_proposal_sampler_are_a_clear_error(tmp_path) ->
     unknown = runner.invoke(app, ["datagen", "--skill", "place", "--split", "train", "--size", "4", "--scenes", "kitchen", "--out", str(tmp_path)])
     assert unknown.exit_code != 0 and "data, tasks" in unknown.output
     assert not any(tmp_path.iterdir())  # nothing written
+
+
+def test_a_bad_rollout_skeleton_is_refused_before_any_work(tmp_path) -> None:
+    base = ["datagen", "--skill", "pull", "--split", "train", "--size", "4", "--sampler", "proposal", "--out", str(tmp_path / "out")]
+    cases = {
+        "pick(hook), pull(green_box, hook)": ("tasks:task3", "green_box"),
+        "pick(hook)": ("tasks:task3", "never calls pull"),
+        "pick(hook), pull(blue_box, hook)": ("tasks", "--scenes tasks:ID"),
+    }
+    for skeleton, (scenes, problem) in cases.items():
+        result = runner.invoke(app, [*base, "--scenes", scenes, "--skeleton", skeleton])
+        assert result.exit_code == 2, result.output
+        assert problem in result.output and "Traceback" not in result.output
+        assert "transitions/s" not in result.output  # refused before the progress bar, not by the first chunk
+    assert not list((tmp_path / "out").rglob("*.safetensors"))
