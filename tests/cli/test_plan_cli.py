@@ -24,5 +24,5 @@ def test_plan_prints_one_row_per_skill_of_the_skeleton() -> None:
 def test_a_bad_skeleton_is_one_line_of_error() -> None:
     for skeleton, problem in ((" , ", "empty skeleton"), ("pick(hook), pull(green_box, hook)", "green_box")):
         result = runner.invoke(app, ["plan", "--task", "task4", "--seed", "0", "--skeleton", skeleton])
-        assert result.exit_code != 0
+        assert result.exit_code == 2, result.output
         assert problem in result.output and "Traceback" not in result.output
