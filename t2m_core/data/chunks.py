@@ -31,8 +31,8 @@ from t2m_core.data.scenes import DATA_SKILLS, DataTask, draw_data_task
 from t2m_core.domain.geometry import quat_multiply, rotate, yaw_to_quat
 from t2m_core.domain.observation import MAX_OBJECTS, argument_first_order, encode_observation
 from t2m_core.domain.primitives import Primitive, get_primitive
-from t2m_core.domain.skills import SkillError
 from t2m_core.domain.sampling import SamplingError, sample_initial_state
+from t2m_core.domain.skills import SkillError
 from t2m_core.domain.state import GeometricState, ObjectPose
 from t2m_core.errors import T2MError
 

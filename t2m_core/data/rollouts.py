@@ -8,7 +8,9 @@ rollout resets the simulator to a task of the suite at a seed far from the evalu
 the task's reference skeleton and, before every call of the chunk's skill, executes proposals
 (:class:`~t2m_core.data.proposals.ProposalSampler`) from the exact snapshot of the reached state. It
 then advances with the best-valued of the policy's noisy actions (a one-step stand-in for the
-planner), retrying a few draws, and ends the rollout at a call it cannot advance.
+planner), retrying a few draws, and ends the rollout at a call it cannot advance. A chunk with a
+``skeleton`` walks that sequence of its one task instead, another order a planner may choose
+(docs/guide/skills.md#other-orders).
 
 A rollout depends on every skill of its skeleton, so its chunks record the digest of the whole
 library (:func:`~t2m_core.data.proposals.library_digest`).
