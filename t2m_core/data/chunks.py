@@ -140,13 +140,13 @@ class ChunkSpec:
             raise DataGenerationError(f"no task of {self.scenes!r} calls {self.skill} in its reference skeleton", "name tasks whose plans use the skill")
 
     def _check_skeleton(self) -> None:
-        ids = parse_rollout_tasks(self.scenes) if self.scenes != "data" else None
-        if ids is None or len(ids) != 1:
-            raise DataGenerationError(f"a rollout skeleton needs the scenes of one task, not {self.scenes!r}", "add --scenes tasks:ID (e.g. tasks:task3)")
         try:
-            task = shipped_tasks(ids)[0]
+            ids = parse_rollout_tasks(self.scenes) if self.scenes != "data" else None
+            task = shipped_tasks(ids)[0] if ids is not None and len(ids) == 1 else None
         except ValueError as error:
             raise DataGenerationError(f"unknown scene source {self.scenes!r}: {error}", "use tasks:ID with a shipped task id") from None
+        if task is None:
+            raise DataGenerationError(f"a rollout skeleton needs the scenes of one task, not {self.scenes!r}", "add --scenes tasks:ID (e.g. tasks:task3)")
         try:
             calls = rollout_skeleton(task, self.skeleton)
         except SkillError as error:

@@ -176,8 +176,13 @@ def parse_skill_sequence(
     except LiteralSyntaxError as error:
         hint = "write e.g. ['pick(a)', 'place(a, b)']"
         raise SkillError(f"cannot parse the skill sequence: {error.message}", hint) from None
+    return _parse_entries(value, object_names, allow_stop)
+
+
+def _parse_entries(entries: Sequence[object], object_names: Sequence[str] | None, allow_stop: bool = False) -> tuple[SkillCall, ...]:
+    """Each entry through :func:`parse_skill_call`; an error names the entry's 1-based position."""
     calls = []
-    for index, entry in enumerate(value, start=1):
+    for index, entry in enumerate(entries, start=1):
         if not isinstance(entry, str):
             raise SkillError(f"skill sequence entry {index} is a list; expected a skill-call string")
         try:
@@ -206,7 +211,7 @@ def parse_skeleton(text: str, object_names: Sequence[str] | None = None) -> tupl
     calls = [c for c in calls if c]
     if not calls:
         raise SkillError("empty skeleton", 'write e.g. "pick(hook), pull(blue_box, hook)"')
-    return parse_skill_sequence(format_string_list(calls), object_names)
+    return _parse_entries(calls, object_names)
 
 
 def format_skill_sequence(calls: Iterable[SkillCall]) -> str:

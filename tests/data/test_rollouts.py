@@ -136,6 +136,8 @@ def test_a_rollout_skeleton_is_checked_and_keeps_its_dataset_apart(tmp_path, shi
         ChunkSpec("pull", "train", 0, 4, sampler="proposal", proposal=shipped, scenes="tasks:task3", skeleton="pick(hook), pull(green_box, hook)")
     with pytest.raises(DataGenerationError, match="no shipped task task9"):
         ChunkSpec("pull", "train", 0, 4, sampler="proposal", proposal=shipped, scenes="tasks:task9", skeleton=order)
+    with pytest.raises(DataGenerationError, match="unknown scene source 'kitchen'"):
+        ChunkSpec("pull", "train", 0, 4, sampler="proposal", proposal=shipped, scenes="kitchen", skeleton=order)
     # task1's reference never pulls (it pushes), but a skeleton of its objects may
     ChunkSpec("pull", "train", 0, 4, sampler="proposal", proposal=shipped, scenes="tasks:task1", skeleton=order)
     with pytest.raises(DataGenerationError, match="calls pull"):
