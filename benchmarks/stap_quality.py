@@ -1,7 +1,7 @@
 """Feasibility planning against the physics: each task's reference skeleton executed closed loop.
 
     python benchmarks/stap_quality.py --json OUT [--planners policy-cem,policy,random-cem] [--tasks all]
-        [--seeds 0-9] [--population N] [--checkpoints DIR]
+        [--seeds 0-9] [--population N] [--checkpoints DIR] [--workers N]
 
 For every planner, task and seed: reset MuJoCo to the task's scene (base seed = index × 1000), plan
 the task's reference skeleton, execute it closed loop (re-planning the remaining skills after every
@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
@@ -28,50 +29,79 @@ def main() -> None:
     parser.add_argument("--sim", default="mujoco")
     parser.add_argument("--checkpoints", default=None, help="skill checkpoints directory (default: the shipped ones)")
     parser.add_argument("--plot", default=None, help="write a reliability plot (PNG) of predicted p_success against success")
+    parser.add_argument("--workers", type=int, default=1,
+                        help="episodes run at once in separate processes (each plan seeds its own generator, so the "
+                             "results do not depend on this; set OMP_NUM_THREADS=1 with more than one)")
     args = parser.parse_args()
 
     from t2m_core.atomic_files import write_json_atomic
-    from t2m_core.closed_loop import execute_closed_loop
-    from t2m_core.domain.goals import goal_satisfied_full
-    from t2m_core.evaluation import SEED_SPACING
-    from t2m_core.registry import get_registry
-    from t2m_core.tasks import load_task, task_ids
+    from t2m_core.tasks import task_ids
 
-    registry = get_registry()
     tasks = list(task_ids()) if args.tasks == "all" else args.tasks.split(",")
     low, _, high = args.seeds.partition("-")
     seeds = range(int(low), int(high or low) + 1)
-    simulator = registry.create("simulator", args.sim)
-    skills = registry.create("skill_library", "tableenv", {"checkpoints": args.checkpoints} if args.checkpoints else {})
     report: dict = {"simulator": args.sim, "checkpoints": args.checkpoints or "shipped", "planners": {}}
     for planner_name in args.planners.split(","):
-        options = {"population": args.population} if args.population and planner_name != "policy" else {}
-        planner = registry.create("feasibility_planner", planner_name, options)
-        episodes = []
-        for task_id in tasks:
-            task = load_task(task_id)
-            for seed in seeds:
-                reset = simulator.reset(task, seed=seed * SEED_SPACING)
-                started = time.perf_counter()
-                result = execute_closed_loop(simulator, planner, skills, task.reference_skeleton, reset.state.object_names)
-                elapsed = time.perf_counter() - started
-                reached = result.success and bool(goal_satisfied_full(task.goal, simulator.geometric_state(), task.initial_state))
-                episodes.append({
-                    "task": task_id, "seed": seed, "success": reached, "skills_succeeded": sum(s.result.success for s in result.steps),
-                    "failure": next((f"{s.call}: {s.result.failure}" for s in result.steps if not s.result.success), None),
-                    "predicted_p_success": float(result.initial_plan.p_success) if result.initial_plan else None,
-                    "seconds_per_plan": elapsed / max(len(result.steps), 1),
-                })
-                print(f"{planner_name:15s} {task_id} seed {seed}: {'success' if reached else episodes[-1]['failure'] or 'goal not reached'}", flush=True)
+        jobs = [(planner_name, task_id, seed) for task_id in tasks for seed in seeds]
+        setup = (args.sim, args.checkpoints, args.population)
+        if args.workers > 1:
+            with ProcessPoolExecutor(args.workers, initializer=_start_worker, initargs=setup) as pool:
+                episodes = list(pool.map(_run_episode, jobs))
+        else:
+            _start_worker(*setup)
+            episodes = [_run_episode(job) for job in jobs]
+            _WORKER["simulator"].close()
         per_task = {t: float(np.mean([e["success"] for e in episodes if e["task"] == t])) for t in tasks}
         overall = float(np.mean([e["success"] for e in episodes]))
-        print(f"{planner_name}: overall {overall:.0%}; " + ", ".join(f"{t} {v:.0%}" for t, v in per_task.items()))
+        print(f"{planner_name}: overall {overall:.0%} ({sum(e['success'] for e in episodes)} / {len(episodes)}); "
+              + ", ".join(f"{t} {v:.0%}" for t, v in per_task.items()))
         report["planners"][planner_name] = {"overall": overall, "per_task": per_task, "episodes": episodes,
                                             "reliability": reliability(episodes)}
-    simulator.close()
     write_json_atomic(args.json_out, report)
     if args.plot:
         plot_reliability(report, args.plot)
+
+
+_WORKER: dict = {}
+
+
+def _start_worker(sim: str, checkpoints: str | None, population: int | None) -> None:
+    """Create this process's simulator and skill library once (the pool's initializer)."""
+    from t2m_core.registry import get_registry
+
+    registry = get_registry()
+    _WORKER.update(registry=registry, population=population, planners={},
+                   simulator=registry.create("simulator", sim),
+                   skills=registry.create("skill_library", "tableenv", {"checkpoints": checkpoints} if checkpoints else {}))
+
+
+def _run_episode(job: tuple[str, str, int]) -> dict:
+    """One (planner, task, seed index) episode: reset, plan and execute the reference skeleton closed loop."""
+    from t2m_core.closed_loop import execute_closed_loop
+    from t2m_core.domain.goals import goal_satisfied_full
+    from t2m_core.evaluation import SEED_SPACING
+    from t2m_core.tasks import load_task
+
+    planner_name, task_id, seed = job
+    planners = _WORKER["planners"]
+    if planner_name not in planners:
+        population = _WORKER["population"]
+        options = {"population": population} if population and planner_name != "policy" else {}
+        planners[planner_name] = _WORKER["registry"].create("feasibility_planner", planner_name, options)
+    simulator, task = _WORKER["simulator"], load_task(task_id)
+    reset = simulator.reset(task, seed=seed * SEED_SPACING)
+    started = time.perf_counter()
+    result = execute_closed_loop(simulator, planners[planner_name], _WORKER["skills"], task.reference_skeleton, reset.state.object_names)
+    elapsed = time.perf_counter() - started
+    reached = result.success and bool(goal_satisfied_full(task.goal, simulator.geometric_state(), task.initial_state))
+    failure = next((f"{s.call}: {s.result.failure}" for s in result.steps if not s.result.success), None)
+    print(f"{planner_name:15s} {task_id} seed {seed}: {'success' if reached else failure or 'goal not reached'}", flush=True)
+    return {
+        "task": task_id, "seed": seed, "success": reached, "skills_succeeded": sum(s.result.success for s in result.steps),
+        "failure": failure,
+        "predicted_p_success": float(result.initial_plan.p_success) if result.initial_plan else None,
+        "seconds_per_plan": elapsed / max(len(result.steps), 1),
+    }
 
 
 def reliability(episodes: list[dict]) -> list[dict]:
