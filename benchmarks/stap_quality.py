@@ -13,8 +13,8 @@ overall for each planner, and a reliability table of predicted p_success against
 from __future__ import annotations
 
 import argparse
+import functools
 import time
-from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
@@ -30,27 +30,27 @@ def main() -> None:
     parser.add_argument("--checkpoints", default=None, help="skill checkpoints directory (default: the shipped ones)")
     parser.add_argument("--plot", default=None, help="write a reliability plot (PNG) of predicted p_success against success")
     parser.add_argument("--workers", type=int, default=1,
-                        help="episodes run at once in separate processes (each plan seeds its own generator, so the "
-                             "results do not depend on this; set OMP_NUM_THREADS=1 with more than one)")
+                        help="episodes run at once in local worker processes (each plan seeds its own generator, so "
+                             "the results do not depend on this)")
     args = parser.parse_args()
 
     from t2m_core.atomic_files import write_json_atomic
+    from t2m_core.executors import make_executor
     from t2m_core.tasks import task_ids
 
     tasks = list(task_ids()) if args.tasks == "all" else args.tasks.split(",")
     low, _, high = args.seeds.partition("-")
     seeds = range(int(low), int(high or low) + 1)
+    planner_names = args.planners.split(",")
+    jobs = [(planner_name, task_id, seed) for planner_name in planner_names for task_id in tasks for seed in seeds]
+    run = functools.partial(_run_episode, sim=args.sim, checkpoints=args.checkpoints, population=args.population)
+    with make_executor("local", workers=args.workers) as pool:
+        finished = dict(pool.map(run, jobs))
+    if "simulator" in _PROCESS_PARTS:  # one worker: the episodes ran in this process
+        _PROCESS_PARTS["simulator"].close()
     report: dict = {"simulator": args.sim, "checkpoints": args.checkpoints or "shipped", "planners": {}}
-    for planner_name in args.planners.split(","):
-        jobs = [(planner_name, task_id, seed) for task_id in tasks for seed in seeds]
-        setup = (args.sim, args.checkpoints, args.population)
-        if args.workers > 1:
-            with ProcessPoolExecutor(args.workers, initializer=_start_worker, initargs=setup) as pool:
-                episodes = list(pool.map(_run_episode, jobs))
-        else:
-            _start_worker(*setup)
-            episodes = [_run_episode(job) for job in jobs]
-            _WORKER["simulator"].close()
+    for planner_name in planner_names:
+        episodes = [finished[job] for job in jobs if job[0] == planner_name]
         per_task = {t: float(np.mean([e["success"] for e in episodes if e["task"] == t])) for t in tasks}
         overall = float(np.mean([e["success"] for e in episodes]))
         print(f"{planner_name}: overall {overall:.0%} ({sum(e['success'] for e in episodes)} / {len(episodes)}); "
@@ -62,36 +62,30 @@ def main() -> None:
         plot_reliability(report, args.plot)
 
 
-_WORKER: dict = {}
+_PROCESS_PARTS: dict = {}
+"""This process's simulator, skill library and planners, made by its first episode and kept for the rest."""
 
 
-def _start_worker(sim: str, checkpoints: str | None, population: int | None) -> None:
-    """Create this process's simulator and skill library once (the pool's initializer)."""
-    from t2m_core.registry import get_registry
-
-    registry = get_registry()
-    _WORKER.update(registry=registry, population=population, planners={},
-                   simulator=registry.create("simulator", sim),
-                   skills=registry.create("skill_library", "tableenv", {"checkpoints": checkpoints} if checkpoints else {}))
-
-
-def _run_episode(job: tuple[str, str, int]) -> dict:
+def _run_episode(job: tuple[str, str, int], *, sim: str, checkpoints: str | None, population: int | None) -> dict:
     """One (planner, task, seed index) episode: reset, plan and execute the reference skeleton closed loop."""
     from t2m_core.closed_loop import execute_closed_loop
     from t2m_core.domain.goals import goal_satisfied_full
     from t2m_core.evaluation import SEED_SPACING
+    from t2m_core.registry import get_registry
     from t2m_core.tasks import load_task
 
     planner_name, task_id, seed = job
-    planners = _WORKER["planners"]
-    if planner_name not in planners:
-        population = _WORKER["population"]
+    registry = get_registry()
+    if "simulator" not in _PROCESS_PARTS:
+        _PROCESS_PARTS["simulator"] = registry.create("simulator", sim)
+        _PROCESS_PARTS["skills"] = registry.create("skill_library", "tableenv", {"checkpoints": checkpoints} if checkpoints else {})
+    if planner_name not in _PROCESS_PARTS:
         options = {"population": population} if population and planner_name != "policy" else {}
-        planners[planner_name] = _WORKER["registry"].create("feasibility_planner", planner_name, options)
-    simulator, task = _WORKER["simulator"], load_task(task_id)
+        _PROCESS_PARTS[planner_name] = registry.create("feasibility_planner", planner_name, options)
+    simulator, task = _PROCESS_PARTS["simulator"], load_task(task_id)
     reset = simulator.reset(task, seed=seed * SEED_SPACING)
     started = time.perf_counter()
-    result = execute_closed_loop(simulator, planners[planner_name], _WORKER["skills"], task.reference_skeleton, reset.state.object_names)
+    result = execute_closed_loop(simulator, _PROCESS_PARTS[planner_name], _PROCESS_PARTS["skills"], task.reference_skeleton, reset.state.object_names)
     elapsed = time.perf_counter() - started
     reached = result.success and bool(goal_satisfied_full(task.goal, simulator.geometric_state(), task.initial_state))
     failure = next((f"{s.call}: {s.result.failure}" for s in result.steps if not s.result.success), None)
