@@ -4,14 +4,14 @@ from __future__ import annotations
 
 from t2m_core.hookspecs import hookimpl
 from t2m_core.plugin_specs import TaskPlannerSpec
-from t2m_planners.options import LookaheadOptions, MyopicOptions
+from t2m_planners.options import HybridOptions, LookaheadOptions, MyopicOptions
 
 TASK_PLANNERS = [
     TaskPlannerSpec(
         name="hybrid",
         aliases=("text2motion",),
         factory="t2m_planners.lookahead:hybrid",
-        options=LookaheadOptions,
+        options=HybridOptions,
         summary="Text2Motion: shooting first, greedy-search steps as the fallback, STAP-verified (default)",
     ),
     TaskPlannerSpec(

@@ -9,18 +9,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from t2m_core.domain.goals import goal_satisfied
 from t2m_core.domain.observation import decode_observation
+from t2m_core.domain.relations import situation
 from t2m_core.domain.skills import SkillCall
+from t2m_core.domain.state import GeometricState
 from t2m_core.language.prompts import HistoryStep
 from t2m_core.language.scene_description import relationships_of
 from t2m_core.protocols import PlanningContext, PlanResult, TaskPlan
-from t2m_planners.options import LookaheadOptions
+from t2m_planners.options import HybridOptions, LookaheadOptions
 
 
 def masked_values(plan: PlanResult) -> np.ndarray:
@@ -47,6 +49,8 @@ class Candidate:
     logprob: float
     usefulness: float
     feasibility: float
+    revisit: bool = False
+    """Its predicted situation repeats one already on the planned path (docs/guide/planners.md#revisited-states)."""
 
     @property
     def score(self) -> float:
@@ -90,6 +94,21 @@ class Search:
             HistoryStep(str(call), relationships_of(decode_observation(plan.states[k + 1], self.objects), self.objects))
             for k, call in enumerate(prefix)
         ]
+
+    def settled(self, before: GeometricState, after: np.ndarray, call: SkillCall) -> GeometricState:
+        """The predicted state ``after`` ``call`` with every object the call does not name kept where it
+        was ``before``: only a skill's arguments move, and the dynamics' small drift of the others must
+        not make a repeated situation look new."""
+        state = decode_observation(after, self.objects)
+        poses = {name: pose if name in call.args else before.objects.get(name, pose) for name, pose in state.objects.items()}
+        return replace(state, objects=poses)
+
+    def path_states(self, plan: PlanResult | None, prefix: Sequence[SkillCall]) -> list[GeometricState]:
+        """The start state and the settled predicted state after each skill of the planned prefix."""
+        states = [decode_observation(self.context.observation if plan is None else plan.states[0], self.objects)]
+        for k, call in enumerate(prefix):
+            states.append(self.settled(states[-1], plan.states[k + 1], call))
+        return states
 
     @staticmethod
     def plan_fields(plan: PlanResult) -> dict[str, Any]:
@@ -143,20 +162,26 @@ class Search:
     def greedy_step(self, prefix: list[SkillCall], prefix_plan: PlanResult | None) -> list[Candidate] | None:
         """K next-skill candidates, each planned with the prefix and scored S_llm · S_geo."""
         history = self.history(prefix_plan, prefix)
-        proposed, attempts = self.context.session.generate_next(self.context.goal, prefix, history=history)
-        self.llm_calls += len(attempts)
-        calls = list(dict.fromkeys(proposed))
+        if self.options.proposals == "grounded":
+            calls = self.context.session.groundings(prefix, history)
+        else:
+            proposed, attempts = self.context.session.generate_next(self.context.goal, prefix, history=history)
+            self.llm_calls += len(attempts)
+            calls = list(dict.fromkeys(proposed))
         if not calls:
             self.emit("greedy_step", prefix=[str(c) for c in prefix], candidates=[], reason="the language model proposed no valid skill")
             return None
         plans = [self.stap(prefix + [call]) for call in calls]
         scored = self.context.session.score(self.context.goal, prefix, calls, history=history)
         self.llm_calls += 1
+        path = self.path_states(prefix_plan, prefix) if self.options.revisits == "skip" else []
+        visited = {situation(state, self.objects) for state in path}
         candidates = []
         for call, plan, logprob, usefulness in zip(calls, plans, scored.logprobs, scored.usefulness, strict=True):
             masked = masked_values(plan)
             feasibility = float(masked[-1]) if self.options.geometric_score == "last" else float(np.prod(masked))
-            candidates.append(Candidate(call, plan, float(logprob), float(usefulness), feasibility))
+            revisit = bool(path) and situation(self.settled(path[-1], plan.states[-1], call), self.objects) in visited
+            candidates.append(Candidate(call, plan, float(logprob), float(usefulness), feasibility, revisit))
         return candidates
 
     def terminal(self, prefix: list[SkillCall], candidates: list[Candidate]) -> Candidate | None:
@@ -164,6 +189,16 @@ class Search:
         steps = len(prefix) + 1
         reaching = [c for c in candidates if self.satisfied(c.plan, steps) and self.ok(c.plan, steps)]
         return max(reaching, key=lambda c: float(np.prod(masked_values(c.plan)))) if reaching else None
+
+    def ranked(self, prefix: list[SkillCall], candidates: list[Candidate]) -> list[Candidate]:
+        """The candidates the search may append, best S_skill first: all of them, as in the paper,
+        less revisits (``revisits="skip"``) and those with a step at or below τ (``below_tau="skip"``)."""
+        steps = len(prefix) + 1
+        kept = [
+            c for c in candidates
+            if not (self.options.revisits == "skip" and c.revisit) and not (self.options.below_tau == "skip" and not self.ok(c.plan, steps))
+        ]
+        return sorted(kept, key=lambda c: -c.score)
 
     def record_step(self, prefix: list[SkillCall], candidates: list[Candidate], chosen: Candidate | None, terminal: bool) -> None:
         self.emit(
@@ -178,6 +213,7 @@ class Search:
                     "score": round(c.score, 6),
                     **self.plan_fields(c.plan),
                     "chosen": c is chosen,
+                    "revisit": c.revisit,
                     "goal_reached": terminal and c is chosen,
                 }
                 for c in candidates
@@ -195,7 +231,7 @@ class LookaheadPlanner:
     def __init__(self, options: LookaheadOptions | None = None, mode: str = "hybrid") -> None:
         if mode not in ("hybrid", "shooting", "greedy-search"):
             raise ValueError(f"unknown lookahead mode {mode!r}")
-        self.options = options or LookaheadOptions()
+        self.options = options or (HybridOptions() if mode == "hybrid" else LookaheadOptions())
         self.mode = mode
 
     def plan(self, context: PlanningContext) -> TaskPlan:
@@ -206,25 +242,41 @@ class LookaheadPlanner:
             return search.result(*shot, None) if shot else search.result([], None, "no proposed sequence reaches the goal with every step feasible")
         prefix: list[SkillCall] = []
         prefix_plan: PlanResult | None = None
-        while len(prefix) < d_max:
-            if self.mode == "hybrid":
-                shot = search.shooting(prefix, prefix_plan, d_max - len(prefix))
-                if shot is not None:
-                    return search.result(*shot, None)
-            candidates = search.greedy_step(prefix, prefix_plan)
-            if candidates is None:
-                return search.result(prefix, prefix_plan, "the language model proposed no valid next skill")
-            terminal = search.terminal(prefix, candidates)
-            if terminal is not None:
-                search.record_step(prefix, candidates, terminal, True)
-                return search.result(prefix + [terminal.call], terminal.plan, None)
-            best = max(candidates, key=lambda c: c.score)
-            search.record_step(prefix, candidates, best, False)
+        alternatives: list[tuple[list[SkillCall], PlanResult | None, list[Candidate]]] = []  # per greedy step taken
+        backtracks = 0
+        while True:
+            ranked: list[Candidate] = []
+            if len(prefix) < d_max:
+                if self.mode == "hybrid":
+                    shot = search.shooting(prefix, prefix_plan, d_max - len(prefix))
+                    if shot is not None:
+                        return search.result(*shot, None)
+                candidates = search.greedy_step(prefix, prefix_plan)
+                if candidates is None:
+                    return search.result(prefix, prefix_plan, "the language model proposed no valid next skill")
+                terminal = search.terminal(prefix, candidates)
+                if terminal is not None:
+                    search.record_step(prefix, candidates, terminal, True)
+                    return search.result(prefix + [terminal.call], terminal.plan, None)
+                ranked = search.ranked(prefix, candidates)
+                search.record_step(prefix, candidates, ranked[0] if ranked else None, False)
+            if not ranked:  # a dead end: d_max reached, or no candidate can be chosen
+                dead_end = f"no goal-reaching plan within {d_max} skills" if len(prefix) >= d_max else (
+                    "no candidate next skill can be chosen (each returns to a situation already on the plan or has a step at or below tau)")
+                ended = (prefix, prefix_plan)
+                while not ranked and alternatives and backtracks < self.options.backtracks:
+                    prefix, prefix_plan, ranked = alternatives.pop()
+                if not ranked:
+                    return search.result(*ended, dead_end)
+                backtracks += 1
+                search.emit("backtrack", prefix=[str(c) for c in prefix], chosen=str(ranked[0].call), reason=dead_end)
+            best = ranked.pop(0)
+            if len(prefix) + 1 < d_max:  # at the last step no other candidate reached the goal: none to resume
+                alternatives.append((prefix, prefix_plan, ranked))
             prefix, prefix_plan = prefix + [best.call], best.plan
-        return search.result(prefix, prefix_plan, f"no goal-reaching plan within {d_max} skills")
 
 
-def hybrid(options: LookaheadOptions) -> LookaheadPlanner:
+def hybrid(options: HybridOptions) -> LookaheadPlanner:
     return LookaheadPlanner(options, "hybrid")
 
 

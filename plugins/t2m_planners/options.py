@@ -29,6 +29,29 @@ class LookaheadOptions(PlannerOptions):
         description="shooting truncation needs steps up to and including t to pass tau (through) or, as the "
         "original's off-by-one did, only the steps before t (before)",
     )
+    proposals: Literal["generated", "grounded"] = Field(
+        "generated",
+        description="greedy candidates: the K skills the language model generates (paper), or every symbolically "
+        "valid grounding, each scored by the language model (grounded)",
+    )
+    revisits: Literal["allow", "skip"] = Field(
+        "allow",
+        description="greedy candidates whose predicted situation repeats one already on the planned path: chosen "
+        "like any other (allow, paper) or never chosen (skip)",
+    )
+    below_tau: Literal["allow", "skip"] = Field(
+        "allow",
+        description="greedy candidates whose plan has a masked step value at or below tau, so that no plan through "
+        "them can be accepted: chosen like any other (allow, paper) or never chosen (skip)",
+    )
+    backtracks: int = Field(
+        0,
+        ge=0,
+        le=50,
+        description="dead ends (no greedy candidate can be chosen, or d_max reached) resumed at the latest earlier "
+        "step's next-best candidate, at most this many per episode (0: the dead end fails the search, as the "
+        "paper's beam of one)",
+    )
 
 
 class MyopicOptions(PlannerOptions):
@@ -36,3 +59,19 @@ class MyopicOptions(PlannerOptions):
 
     stop_value: float = Field(0.5, ge=0, description="the feasibility value of stop()")
     stop_value_when_top: float = Field(10.0, ge=0, description="stop()'s value when the language model ranks it first")
+
+
+def _described(name: str, default: object) -> object:
+    """A :class:`LookaheadOptions` field with another default (same description)."""
+    return Field(default, description=LookaheadOptions.model_fields[name].description)
+
+
+class HybridOptions(LookaheadOptions):
+    """Options of hybrid: the lookahead ones, with the search options of
+    docs/guide/planners.md#search-options-beyond-the-paper on by default
+    (docs/guide/deviations.md#a-greedy-step-that-does-not-loop)."""
+
+    proposals: Literal["generated", "grounded"] = _described("proposals", "grounded")  # type: ignore[assignment]
+    revisits: Literal["allow", "skip"] = _described("revisits", "skip")  # type: ignore[assignment]
+    below_tau: Literal["allow", "skip"] = _described("below_tau", "skip")  # type: ignore[assignment]
+    backtracks: int = Field(5, ge=0, le=50, description=LookaheadOptions.model_fields["backtracks"].description)

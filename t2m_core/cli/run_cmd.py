@@ -63,8 +63,10 @@ def _show(console: Any, event: dict[str, Any]) -> None:
         console.print(f"  shooting {event['sequence']}: values [{values}] {mark} ({event.get('reason')})")
     elif kind == "greedy_step":
         for c in event.get("candidates", []):
-            mark = "[green]<-[/]" if c.get("chosen") else ""
+            mark = "[green]<-[/]" if c.get("chosen") else ("[dim]revisit[/]" if c.get("revisit") else "")
             console.print(f"  greedy {c['skill']}: usefulness {c['usefulness']:.2f} x feasibility {c['feasibility']:.2f} = {c['score']:.3f} {mark}")
+    elif kind == "backtrack":
+        console.print(f"  [yellow]backtrack[/] ({event.get('reason')}): {event['prefix']} + {event['chosen']}")
     elif kind == "myopic_step":
         for c in event.get("candidates", []):
             console.print(f"  {c['skill']}: usefulness {c['usefulness']:.2f} x value {c['value']:.2f}{' <-' if c.get('chosen') else ''}")

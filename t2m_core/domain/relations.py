@@ -42,3 +42,35 @@ def relation_strings(state: GeometricState, object_names: Sequence[str] | None =
     """:func:`symbolic_state` as strings, ``['on(rack, table)', ...]``, as the prompts show them."""
     return [str(p) for p in symbolic_state(state, object_names)]
 
+
+
+SITUATION_ZONES: tuple[str, ...] = ("inworkspace", "beyondworkspace")
+"""The zones a situation records for every box."""
+
+
+def situation(state: GeometricState, object_names: Sequence[str] | None = None) -> frozenset[str]:
+    """What a planner compares to tell one planned state from another: the relations of
+    :func:`symbolic_state`, plus, for every box not in hand, the zones of :data:`SITUATION_ZONES` it
+    lies in and ``infront(box, rack)`` (docs/guide/planners.md#revisited-states).
+
+    The relations alone cannot tell a pulled box from one left where it was, or a box moved out of
+    the rack's way from one standing in front of it; the zones and ``infront`` can. Where the hook
+    lies is left out: putting it down somewhere else achieves nothing by itself.
+
+    Args:
+        state: the geometric state.
+        object_names: objects in task order; defaults to ``state.object_names``. Absent ones are skipped.
+    """
+    from t2m_core.domain.objects import ObjectKind
+    from t2m_core.domain.predicates import Scene, evaluate
+
+    names = [n for n in (object_names if object_names is not None else state.object_names) if n in state.objects]
+    scene = Scene(state)
+    facts = {str(p) for p in symbolic_state(state, names)}
+    racks = [n for n in names if scene.geometry(n).spec.kind is ObjectKind.RACK]
+    for name in names:
+        if scene.geometry(name).spec.kind is not ObjectKind.BOX or state.held == name:
+            continue
+        facts.update(f"{zone}({name})" for zone in SITUATION_ZONES if evaluate(f"{zone}({name})", scene, full=False))
+        facts.update(f"infront({name}, {rack})" for rack in racks if evaluate(f"infront({name}, {rack})", scene, full=False))
+    return frozenset(facts)

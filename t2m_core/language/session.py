@@ -177,8 +177,7 @@ class LanguageSession:
         relationships a feasibility planner predicted) replaces the symbolically predicted one."""
         history = self._history(executed, history)
         prompt = self.prompts.next_skill(self.scene, goal, history)
-        relationships = history[-1].relationships if history and history[-1].relationships is not None else self.scene.relationships
-        calls = valid_groundings(self.scene.objects, relationships) if self.grounded else None
+        calls = self.groundings(executed, history) if self.grounded else None
         candidates, attempts = query_next_skills(
             self.model,
             prompt,
@@ -188,6 +187,13 @@ class LanguageSession:
             calls=[str(call) for call in calls] if calls else None,
         )
         return candidates.calls, attempts
+
+    def groundings(self, executed: Sequence[SkillCall], history: Sequence[HistoryStep] | None = None) -> list[SkillCall]:
+        """Every skill symbolically valid after ``executed`` (:func:`valid_groundings` of the last
+        history step's relationships; ``history`` as in :meth:`generate_next`)."""
+        history = self._history(executed, history)
+        relationships = history[-1].relationships if history and history[-1].relationships is not None else self.scene.relationships
+        return valid_groundings(self.scene.objects, relationships)
 
     def generate_sequences(
         self, goal: Goal, executed: Sequence[SkillCall] = (), history: Sequence[HistoryStep] | None = None

@@ -11,9 +11,9 @@ from t2m_core.domain.predicates import Scene, evaluate
 from t2m_core.domain.propositions import (
     Proposition,
 )
-from t2m_core.domain.relations import relation_strings, symbolic_state
+from t2m_core.domain.relations import relation_strings, situation, symbolic_state
 from t2m_core.domain.state import ObjectPose
-from tests.domain.scenes import RACK_IN_WORKSPACE, on_table, random_scenes, scene
+from tests.domain.scenes import RACK_BEYOND, RACK_IN_WORKSPACE, on_table, random_scenes, scene
 
 
 def test_symbolic_state_order_follows_the_object_order() -> None:
@@ -62,3 +62,16 @@ def test_symbolic_state_skips_absent_names() -> None:
     state = scene(red_box=on_table("red_box", 0.5, 0.0))
     assert relation_strings(state, ["table", "rack", "red_box"]) == ["on(red_box, table)"]
     assert np.asarray(state.ee_position).shape == (3,)
+
+
+def test_a_situation_tells_a_pulled_box_and_a_cleared_rack_front_apart_but_not_where_the_hook_lies() -> None:
+    def at(box_xy, hook_xy=(0.45, 0.25)):
+        return scene(rack=RACK_BEYOND, hook=on_table("hook", *hook_xy), blue_box=on_table("blue_box", *box_xy))
+
+    far, near, beside = at((0.78, 0.25)), at((0.50, -0.25)), at((0.50, 0.0))  # rack spans y in about ±0.15 at x 0.82
+    assert relation_strings(far) == relation_strings(near) == relation_strings(beside)  # the relations cannot tell
+    assert "beyondworkspace(blue_box)" in situation(far) and "inworkspace(blue_box)" in situation(near)
+    assert "infront(blue_box, rack)" in situation(beside) and "infront(blue_box, rack)" not in situation(near)
+    assert len({situation(far), situation(near), situation(beside)}) == 3
+    assert situation(at((0.50, -0.25), hook_xy=(0.55, 0.30))) == situation(near)  # the hook moved: same situation
+    assert set(relation_strings(near)) <= situation(near)

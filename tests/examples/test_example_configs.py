@@ -15,7 +15,7 @@ CONFIGS = Path(__file__).parents[2] / "examples" / "configs"
 
 
 def test_there_are_example_configs() -> None:
-    assert {path.name for path in CONFIGS.glob("*.yaml")} >= {"default.yaml", "hosted-llm.yaml", "measured-scene.yaml"}
+    assert {path.name for path in CONFIGS.glob("*.yaml")} >= {"default.yaml", "hosted-llm.yaml", "measured-scene.yaml", "paper-search.yaml"}
 
 
 def test_default_yaml_is_exactly_the_defaults() -> None:
@@ -41,3 +41,14 @@ def test_measured_scene_validates_once_the_example_plugin_is_installed(t2m_fake_
         "path": "examples/t2m-scene-file/scenes/example.yaml",
         "size_tolerance": 0.01,
     }
+
+
+def test_paper_search_restores_the_published_greedy_step_in_hybrid() -> None:
+    from t2m_planners.options import HybridOptions, LookaheadOptions
+
+    config = resolve_config([CONFIGS / "paper-search.yaml"], registry=get_registry())
+    assert config.task_planner.name == "hybrid"
+    published = HybridOptions(**config.task_planner.options)
+    assert (published.proposals, published.revisits, published.below_tau, published.backtracks) == ("generated", "allow", "allow", 0)
+    assert published.model_dump() == LookaheadOptions().model_dump()  # greedy-search's defaults are the published ones
+    assert HybridOptions().model_dump() != LookaheadOptions().model_dump()

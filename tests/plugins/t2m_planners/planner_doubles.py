@@ -50,11 +50,13 @@ class SymbolicFeasibility:
     """Predicts each step's state by moving objects where the skill's symbolic effect says (a picked
     object to the gripper, a placed one onto its support), with ``values[str(call)]`` (default 0.9)
     as every step's value (0.05 for placing an object that is not held: infeasible) and the calls in
-    ``ood`` flagged."""
+    ``ood`` flagged. ``drift`` (metres per step, along x) moves every object the skill does not name,
+    as a learned dynamics model's error would."""
 
-    def __init__(self, values: Mapping[str, float] | None = None, ood: Sequence[str] = ()) -> None:
+    def __init__(self, values: Mapping[str, float] | None = None, ood: Sequence[str] = (), drift: float = 0.0) -> None:
         self.values = dict(values or {})
         self.ood = set(ood)
+        self.drift = drift
         self.calls: list[list[str]] = []
 
     def plan(self, observation, skeleton: Sequence[SkillCall], skills, object_names) -> PlanResult:
@@ -66,6 +68,9 @@ class SymbolicFeasibility:
             values.append(0.05 if call.name == "place" and call.args[0] != held else self.values.get(str(call), 0.9))
             held = call.args[0] if call.name == "pick" else None
             state = states[-1].copy()
+            for name, row in rows.items():
+                if name not in call.args and name != "table":
+                    state[row, 0] += self.drift
             target = call.args[0]
             size_z = object_spec(target).size[2]
             if call.name == "pick":

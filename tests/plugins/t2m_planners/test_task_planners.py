@@ -78,3 +78,68 @@ def test_planning_fails_after_the_depth_budget() -> None:
     model = RuleModel(next_skills=["['pick(blue_box)']"], scores={"pick(blue_box)": -1.0})
     result = check_task_planner(LookaheadPlanner(LookaheadOptions(max_depth=3), "greedy-search"), context(model, SymbolicFeasibility()))
     assert not result.found and "within 3 skills" in result.failure and len(result.skeleton) == 3
+
+
+@pytest.mark.parametrize("drift", [0.0, 0.2])
+def test_skipping_revisits_never_returns_to_a_planned_situation(drift: float) -> None:
+    def chosen_third(revisits: str) -> str:
+        model = RuleModel(next_skills=["['pick(blue_box)']", "['place(blue_box, rack)']", "['pick(blue_box)', 'pick(red_box)']"],
+                          scores={"pick(blue_box)": -1.0, "pick(red_box)": -3.0})
+        planner = LookaheadPlanner(LookaheadOptions(max_depth=3, revisits=revisits), "greedy-search")
+        result = planner.plan(context(model, SymbolicFeasibility(drift=drift)))
+        assert not result.found and len(result.skeleton) == 3
+        return str(result.skeleton[2])
+
+    # taking the blue box off the rack again repeats the situation after the first step (blue box in
+    # hand, the rest as it was), also when the predicted states let the red box drift 0.2 m a step,
+    # out of the workspace
+    assert chosen_third("allow") == "pick(blue_box)"
+    assert chosen_third("skip") == "pick(red_box)"
+
+
+def test_skipping_revisits_fails_early_when_every_candidate_revisits() -> None:
+    model = RuleModel(next_skills=["['pick(blue_box)']", "['place(blue_box, rack)']", "['pick(blue_box)']"])
+    events: list = []
+    result = LookaheadPlanner(LookaheadOptions(revisits="skip"), "greedy-search").plan(context(model, SymbolicFeasibility(), events))
+    assert not result.found and "already on the plan" in result.failure and len(result.skeleton) == 2
+    last = [e for e in events if e["event"] == "greedy_step"][-1]
+    assert [(c["skill"], c["revisit"], c["chosen"]) for c in last["candidates"]] == [("pick(blue_box)", True, False)]
+
+
+def test_grounded_proposals_score_every_valid_skill_without_generating() -> None:
+    model = RuleModel(scores={"pick(red_box)": -1.0, "pick(blue_box)": -2.0})
+    events: list = []
+    result = LookaheadPlanner(LookaheadOptions(proposals="grounded"), "greedy-search").plan(context(model, SymbolicFeasibility(), events))
+    assert [str(c) for c in result.skeleton] == ["pick(red_box)", "place(red_box, rack)"]
+    assert "next" not in model.requests and model.requests == ["score", "score"] and result.llm_calls == 2
+    first, second = [{c["skill"] for c in e["candidates"]} for e in events if e["event"] == "greedy_step"]
+    assert first == {"pick(red_box)", "pick(blue_box)"}  # nothing in hand: only the two boxes can be picked
+    assert {"place(red_box, table)", "place(red_box, rack)"} <= second and not any(s.startswith("pick") for s in second)
+
+
+def test_a_dead_end_backtracks_to_the_next_best_candidate_of_an_earlier_step() -> None:
+    # step 1 prefers the blue box; after it every candidate is below tau, a dead end
+    model = RuleModel(next_skills=["['pick(blue_box)', 'pick(red_box)']", "['place(blue_box, rack)']", "['place(red_box, rack)']"],
+                      scores={"pick(blue_box)": -1.0, "pick(red_box)": -3.0})
+    feasibility = SymbolicFeasibility(values={"place(blue_box, rack)": 0.1})
+    options = LookaheadOptions(below_tau="skip", backtracks=1)
+    events: list = []
+    result = LookaheadPlanner(options, "greedy-search").plan(context(model, feasibility, events))
+    assert [str(c) for c in result.skeleton] == ["pick(red_box)", "place(red_box, rack)"]
+    assert [e["chosen"] for e in events if e["event"] == "backtrack"] == ["pick(red_box)"]
+    model = RuleModel(next_skills=["['pick(blue_box)', 'pick(red_box)']", "['place(blue_box, rack)']"],
+                      scores={"pick(blue_box)": -1.0, "pick(red_box)": -3.0})
+    without = LookaheadPlanner(LookaheadOptions(below_tau="skip"), "greedy-search").plan(context(model, feasibility))
+    assert not without.found and "at or below tau" in without.failure and [str(c) for c in without.skeleton] == ["pick(blue_box)"]
+
+
+def test_backtracking_never_resumes_the_last_step_where_no_candidate_reached_the_goal() -> None:
+    model = RuleModel(scores={"pick(red_box)": -1.0, "pick(blue_box)": -2.0})
+    feasibility = SymbolicFeasibility(values={"place(red_box, rack)": 0.1})  # the goal is never reached
+    events: list = []
+    options = LookaheadOptions(proposals="grounded", max_depth=2, backtracks=5)
+    result = LookaheadPlanner(options, "greedy-search").plan(context(model, feasibility, events))
+    assert not result.found and "within 2 skills" in result.failure
+    # d_max ends the red branch; only the first step's other candidate is worth resuming
+    assert [e["chosen"] for e in events if e["event"] == "backtrack"] == ["pick(blue_box)"]
+    assert [str(c) for c in result.skeleton][0] == "pick(blue_box)"
