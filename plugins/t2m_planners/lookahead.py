@@ -160,7 +160,8 @@ class Search:
         return sequence, plan
 
     def greedy_step(self, prefix: list[SkillCall], prefix_plan: PlanResult | None) -> list[Candidate] | None:
-        """K next-skill candidates, each planned with the prefix and scored S_llm · S_geo."""
+        """The next-skill candidates (the K the model generates, or every valid grounding with
+        ``proposals="grounded"``), each planned with the prefix and scored S_llm · S_geo."""
         history = self.history(prefix_plan, prefix)
         if self.options.proposals == "grounded":
             calls = self.context.session.groundings(prefix, history)
@@ -169,7 +170,7 @@ class Search:
             self.llm_calls += len(attempts)
             calls = list(dict.fromkeys(proposed))
         if not calls:
-            self.emit("greedy_step", prefix=[str(c) for c in prefix], candidates=[], reason="the language model proposed no valid skill")
+            self.emit("greedy_step", prefix=[str(c) for c in prefix], candidates=[], reason="no valid next skill was proposed")
             return None
         plans = [self.stap(prefix + [call]) for call in calls]
         scored = self.context.session.score(self.context.goal, prefix, calls, history=history)
@@ -253,7 +254,7 @@ class LookaheadPlanner:
                         return search.result(*shot, None)
                 candidates = search.greedy_step(prefix, prefix_plan)
                 if candidates is None:
-                    return search.result(prefix, prefix_plan, "the language model proposed no valid next skill")
+                    return search.result(prefix, prefix_plan, "no valid next skill was proposed")
                 terminal = search.terminal(prefix, candidates)
                 if terminal is not None:
                     search.record_step(prefix, candidates, terminal, True)
