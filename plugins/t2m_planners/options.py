@@ -5,6 +5,9 @@ from __future__ import annotations
 from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
+from pydantic.fields import FieldInfo
+
+AllowOrSkip = Literal["allow", "skip"]
 
 
 class PlannerOptions(BaseModel):
@@ -34,12 +37,12 @@ class LookaheadOptions(PlannerOptions):
         description="greedy candidates: the K skills the language model generates (paper), or every symbolically "
         "valid grounding, each scored by the language model (grounded)",
     )
-    revisits: Literal["allow", "skip"] = Field(
+    revisits: AllowOrSkip = Field(
         "allow",
         description="greedy candidates whose predicted situation repeats one already on the planned path: chosen "
         "like any other (allow, paper) or never chosen (skip)",
     )
-    below_tau: Literal["allow", "skip"] = Field(
+    below_tau: AllowOrSkip = Field(
         "allow",
         description="greedy candidates whose plan has a masked step value at or below tau, so that no plan through "
         "them can be accepted: chosen like any other (allow, paper) or never chosen (skip)",
@@ -61,9 +64,9 @@ class MyopicOptions(PlannerOptions):
     stop_value_when_top: float = Field(10.0, ge=0, description="stop()'s value when the language model ranks it first")
 
 
-def _described(name: str, default: object) -> object:
-    """A :class:`LookaheadOptions` field with another default (same description)."""
-    return Field(default, description=LookaheadOptions.model_fields[name].description)
+def _with_default(name: str, default: object) -> FieldInfo:
+    """A :class:`LookaheadOptions` field (description, bounds) with another default."""
+    return FieldInfo.merge_field_infos(LookaheadOptions.model_fields[name], default=default)
 
 
 class HybridOptions(LookaheadOptions):
@@ -71,7 +74,7 @@ class HybridOptions(LookaheadOptions):
     docs/guide/planners.md#search-options-beyond-the-paper on by default
     (docs/guide/deviations.md#a-greedy-step-that-does-not-loop)."""
 
-    proposals: Literal["generated", "grounded"] = _described("proposals", "grounded")  # type: ignore[assignment]
-    revisits: Literal["allow", "skip"] = _described("revisits", "skip")  # type: ignore[assignment]
-    below_tau: Literal["allow", "skip"] = _described("below_tau", "skip")  # type: ignore[assignment]
-    backtracks: int = Field(5, ge=0, le=50, description=LookaheadOptions.model_fields["backtracks"].description)
+    proposals: Literal["generated", "grounded"] = _with_default("proposals", "grounded")  # type: ignore[assignment]
+    revisits: AllowOrSkip = _with_default("revisits", "skip")  # type: ignore[assignment]
+    below_tau: AllowOrSkip = _with_default("below_tau", "skip")  # type: ignore[assignment]
+    backtracks: int = _with_default("backtracks", 5)  # type: ignore[assignment]

@@ -11,6 +11,8 @@ from collections.abc import Sequence
 
 from t2m_core.domain import geometry
 from t2m_core.domain.geometry import is_inhand, is_on, is_under
+from t2m_core.domain.objects import ObjectKind
+from t2m_core.domain.predicates import Scene, evaluate
 from t2m_core.domain.propositions import Proposition
 from t2m_core.domain.state import GeometricState
 
@@ -61,9 +63,6 @@ def situation(state: GeometricState, object_names: Sequence[str] | None = None) 
         state: the geometric state.
         object_names: objects in task order; defaults to ``state.object_names``. Absent ones are skipped.
     """
-    from t2m_core.domain.objects import ObjectKind
-    from t2m_core.domain.predicates import Scene, evaluate
-
     names = [n for n in (object_names if object_names is not None else state.object_names) if n in state.objects]
     scene = Scene(state)
     facts = {str(p) for p in symbolic_state(state, names)}
