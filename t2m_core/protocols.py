@@ -10,14 +10,19 @@ Units: metres, radians, seconds.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar, runtime_checkable
 
 if TYPE_CHECKING:
     import numpy as np
+    import torch
 
+    from t2m_core.domain.goals import Goal
+    from t2m_core.domain.skills import SkillCall
     from t2m_core.domain.state import GeometricState
+    from t2m_core.language.session import LanguageSession
+    from t2m_core.tasks.model import Task
 
 
 # --------------------------------------------------------------------------------------------------
@@ -86,9 +91,9 @@ class Simulator(Protocol):
     render mode is fixed at construction.
     """
 
-    def reset(self, task: Any, *, seed: int) -> ResetResult:
+    def reset(self, task: Task, *, seed: int) -> ResetResult:
         """Sample the task's initial state for ``seed`` (trying ``seed + 1``... on rejection), settle
-        and verify it. ``task`` is a :class:`t2m_core.tasks.Task`."""
+        and verify it."""
         ...
 
     def execute(self, primitive: str, arguments: Sequence[str], action: np.ndarray) -> PrimitiveResult:
@@ -126,12 +131,18 @@ class Simulator(Protocol):
 # --------------------------------------------------------------------------------------------------
 
 
+Batch = TypeVar("Batch", "np.ndarray", "torch.Tensor")
+"""What :class:`Skill` methods take: NumPy arrays (the myopic planners, the conformance check) or torch
+tensors (the STAP rollouts), all arguments of one kind; they answer in that kind."""
+
+
 @runtime_checkable
 class Skill(Protocol):
     """One entry of a skill library: a primitive plus its learned models.
 
     States are the 96-D skill-specific encodings (argument-first, normalised;
-    docs/guide/skills.md#state-encodings); actions are normalised to ``[-1, 1]``. All methods are batched.
+    docs/guide/skills.md#state-encodings); actions are normalised to ``[-1, 1]``. All methods are batched
+    over the first axis and answer in the kind of their arguments (:data:`Batch`).
     """
 
     name: str
@@ -144,15 +155,15 @@ class Skill(Protocol):
     """ε of the OOD detector: a (state, action) whose ensemble variance is ≥ ε is out of
     distribution (docs/guide/skills.md#ood-detection)."""
 
-    def policy(self, states: Any) -> Any:
+    def policy(self, states: Batch) -> Batch:
         """Deterministic action ``(N, 4)`` for ``(N, 96)`` states."""
         ...
 
-    def q_values(self, states: Any, actions: Any) -> Any:
+    def q_values(self, states: Batch, actions: Batch) -> Batch:
         """Success probabilities of every ensemble member, ``(N, B)`` for ``(N, 96)``, ``(N, 4)``."""
         ...
 
-    def predict(self, states: Any, actions: Any) -> Any:
+    def predict(self, states: Batch, actions: Batch) -> Batch:
         """Predicted next dynamics state ``(N, 96)`` (docs/guide/skills.md#dynamics)."""
         ...
 
@@ -193,12 +204,11 @@ class FeasibilityPlanner(Protocol):
     def plan(
         self,
         observation: np.ndarray,
-        skeleton: Sequence[Any],
+        skeleton: Sequence[SkillCall],
         skills: Mapping[str, Skill],
         object_names: Sequence[str],
     ) -> PlanResult:
-        """Plan ``skeleton`` (a sequence of :class:`t2m_core.domain.skills.SkillCall`) from the
-        ``(8, 12)`` observation whose rows ``1..N`` are ``object_names``."""
+        """Plan ``skeleton`` from the ``(8, 12)`` observation whose rows ``1..N`` are ``object_names``."""
         ...
 
 
@@ -292,9 +302,9 @@ class PlanningContext:
 
     Attributes:
         instruction: the human instruction.
-        goal: the predicted goal (:class:`t2m_core.domain.goals.Goal`); lookahead planners stop on it,
-            the myopic baselines only show it to the language model.
-        session: the :class:`t2m_core.language.session.LanguageSession` of the scene (prompts, queries).
+        goal: the predicted goal; lookahead planners stop on it, the myopic baselines only show it to
+            the language model.
+        session: the scene's language session (prompts, queries).
         skills: skill name -> :class:`Skill`.
         feasibility: the :class:`FeasibilityPlanner` (STAP).
         object_names: the present objects in observation-row order.
@@ -305,14 +315,14 @@ class PlanningContext:
     """
 
     instruction: str
-    goal: Any
-    session: Any
+    goal: Goal
+    session: LanguageSession
     skills: Mapping[str, Skill]
     feasibility: FeasibilityPlanner
     object_names: Sequence[str]
     observation: np.ndarray
     simulator: Simulator | None = None
-    on_event: Any = None
+    on_event: Callable[[dict[str, Any]], None] | None = None
 
 
 @dataclass
@@ -320,7 +330,7 @@ class TaskPlan:
     """What a task planner returns.
 
     Attributes:
-        skeleton: the chosen skill sequence (``SkillCall`` s); for the myopic baselines, what they executed.
+        skeleton: the chosen skill sequence; for the myopic baselines, what they executed.
         plan: the feasibility plan of ``skeleton`` from the start (``None`` when planning failed or
             for planners that executed as they went).
         failure: why planning failed, or ``None``.
@@ -328,7 +338,7 @@ class TaskPlan:
         llm_calls, stap_calls: how many language-model requests and feasibility plans it made.
     """
 
-    skeleton: Sequence[Any]
+    skeleton: Sequence[SkillCall]
     plan: PlanResult | None
     failure: str | None = None
     executed: bool = False

@@ -14,6 +14,7 @@ import numpy as np
 import torch
 
 from t2m_core.data.scenes import DATA_SKILLS
+from t2m_core.protocols import Batch
 from t2m_skills_tableenv.checkpoints import CheckpointError, load_q, load_weights, read_config
 from t2m_skills_tableenv.networks import Dynamics, GaussianPolicy, QEnsemble, RelationalQEnsemble
 from t2m_skills_tableenv.options import TableEnvSkillsOptions
@@ -64,28 +65,28 @@ class TableEnvSkill:
         )
 
     @torch.no_grad()
-    def policy(self, states: Any) -> Any:
+    def policy(self, states: Batch) -> Batch:
         """Deterministic actions ``(N, 4)`` in [−1, 1] for skill states ``(N, 96)``."""
         return _same_kind(states, self.policy_network(_tensor(states)))
 
     @torch.no_grad()
-    def q_values(self, states: Any, actions: Any) -> Any:
+    def q_values(self, states: Batch, actions: Batch) -> Batch:
         """Success probability of every member, ``(N, B)``, for ``(N, 96)`` states and ``(N, 4)`` actions."""
         return _same_kind(states, self.q_ensemble.probabilities(_tensor(states), _tensor(actions)))
 
     @torch.no_grad()
-    def predict(self, states: Any, actions: Any) -> Any:
+    def predict(self, states: Batch, actions: Batch) -> Batch:
         """Predicted next dynamics state ``(N, 96)`` (normalised, argument-first; not yet clamped)."""
         return _same_kind(states, self.dynamics(_tensor(states), _tensor(actions)))
 
 
-def _tensor(values: Any) -> torch.Tensor:
+def _tensor(values: Batch) -> torch.Tensor:
     if isinstance(values, torch.Tensor):
         return values.float()
     return torch.from_numpy(np.ascontiguousarray(values, dtype=np.float32))
 
 
-def _same_kind(like: Any, result: torch.Tensor) -> Any:
+def _same_kind(like: Batch, result: torch.Tensor) -> Batch:
     return result if isinstance(like, torch.Tensor) else result.numpy()
 
 

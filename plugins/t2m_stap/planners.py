@@ -7,13 +7,12 @@ skills, object_names) -> PlanResult``. All are deterministic for their ``seed``.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
 
 import numpy as np
 import torch
 
 from t2m_core.domain.skills import SkillCall
-from t2m_core.protocols import PlanResult
+from t2m_core.protocols import PlanResult, Skill
 from t2m_stap.options import CEMOptions, PolicyOptions, RandomCEMOptions, SamplingOptions, ShootingOptions
 from t2m_stap.rollout import Rollouts, Step, prepare_steps, rollout, rollout_in_chunks, thresholds_of
 
@@ -51,7 +50,7 @@ class FeasibilityPlannerBase:
     """What every planner here does around its search: check the observation, prepare the skeleton's
     steps and thresholds, and turn the chosen trajectory into a :class:`PlanResult`."""
 
-    def plan(self, observation: np.ndarray, skeleton: Sequence[SkillCall], skills: Mapping[str, Any], object_names: Sequence[str]) -> PlanResult:
+    def plan(self, observation: np.ndarray, skeleton: Sequence[SkillCall], skills: Mapping[str, Skill], object_names: Sequence[str]) -> PlanResult:
         start = _observation(observation)
         if not skeleton:
             return _empty_plan(start)

@@ -18,6 +18,7 @@ import torch
 
 from t2m_core.domain.observation import FEATURE_HIGH, FEATURE_LOW, STATIC_FEATURES, argument_first_order
 from t2m_core.domain.skills import SkillCall
+from t2m_core.protocols import Skill
 
 _MID = torch.from_numpy(0.5 * (FEATURE_LOW + FEATURE_HIGH))
 _SPAN = torch.from_numpy(FEATURE_HIGH - FEATURE_LOW)
@@ -34,13 +35,13 @@ class Step:
     """
 
     call: SkillCall
-    skill: Any
+    skill: Skill
     order: torch.Tensor
     inverse: torch.Tensor
     present: int
 
 
-def prepare_steps(skeleton: Sequence[SkillCall], skills: Mapping[str, Any], object_names: Sequence[str]) -> list[Step]:
+def prepare_steps(skeleton: Sequence[SkillCall], skills: Mapping[str, Skill], object_names: Sequence[str]) -> list[Step]:
     """Row orders and models of every skill in ``skeleton``.
 
     Raises:
