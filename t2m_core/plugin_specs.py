@@ -80,7 +80,8 @@ class SkillLibrarySpec(ComponentSpec):
 
     Attributes:
         trainer: ``train(skill, models, data, checkpoint, overrides, on_progress, simulator, more_train) -> dict``
-            (``more_train``: further dataset directories whose train splits are appended).
+            (``more_train``: further dataset directories whose train splits are appended; ``init_from``
+            and ``anchor`` are passed as keywords only when given).
         calibrator: ``calibrate(skill, data, checkpoint) -> dict``.
         reporter: ``report(checkpoints, data, episodes, out, simulator) -> dict``.
     """

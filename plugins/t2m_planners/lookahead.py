@@ -227,13 +227,16 @@ class Search:
 
 class LookaheadPlanner:
     """``hybrid`` (Text2Motion: shooting first, a greedy step as fallback, shooting again from the
-    longer prefix), ``shooting`` (one query) and ``greedy-search`` (one skill at a time)."""
+    longer prefix unless ``reshoot="never"``), ``shooting`` (one query) and ``greedy-search`` (one
+    skill at a time)."""
 
     def __init__(self, options: LookaheadOptions | None = None, mode: str = "hybrid") -> None:
         if mode not in ("hybrid", "shooting", "greedy-search"):
             raise ValueError(f"unknown lookahead mode {mode!r}")
         self.options = options or (HybridOptions() if mode == "hybrid" else LookaheadOptions())
         self.mode = mode
+        self.reshoot = not isinstance(self.options, HybridOptions) or self.options.reshoot == "every_step"
+        """Hybrid queries shooting again after every greedy step (otherwise only from the empty prefix)."""
 
     def plan(self, context: PlanningContext) -> TaskPlan:
         search = Search(context, self.options)
@@ -248,7 +251,7 @@ class LookaheadPlanner:
         while True:
             ranked: list[Candidate] = []
             if len(prefix) < d_max:
-                if self.mode == "hybrid":
+                if self.mode == "hybrid" and (not prefix or self.reshoot):
                     shot = search.shooting(prefix, prefix_plan, d_max - len(prefix))
                     if shot is not None:
                         return search.result(*shot, None)

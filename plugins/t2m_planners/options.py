@@ -78,3 +78,9 @@ class HybridOptions(LookaheadOptions):
     revisits: AllowOrSkip = _with_default("revisits", "skip")  # type: ignore[assignment]
     below_tau: AllowOrSkip = _with_default("below_tau", "skip")  # type: ignore[assignment]
     backtracks: int = _with_default("backtracks", 5)  # type: ignore[assignment]
+    reshoot: Literal["every_step", "never"] = Field(
+        "every_step",
+        description="shooting queries after the first: one after every greedy step, from the longer prefix "
+        "(every_step, the published interleaving), or none, so that the greedy steps finish the plan (never: "
+        "about one generation call of 10 s saved per greedy step; docs/guide/planners.md#re-shooting)",
+    )

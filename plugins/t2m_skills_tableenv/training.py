@@ -62,6 +62,9 @@ class StageSettings(BaseModel):
         description="Q-ensemble only: every member sees the same batches (the published setting), or each "
         "member draws its batches from its own bootstrap resample of the training set",
     )
+    anchor_weight: float = Field(
+        1.0, ge=0, description="Q-ensemble only, with anchor data: weight of the anchor loss against the labelled loss"
+    )
     q_network: Literal["mlp", "relational"] = Field(
         "mlp",
         description="Q-ensemble only: the published MLP, or the relational network that reads the other objects "
@@ -105,18 +108,47 @@ class Stage:
         raise NotImplementedError
 
 
+@dataclass
+class Anchor:
+    """What an anchored Q-ensemble must keep: the ``teacher`` ensemble's member probabilities on the
+    states of ``data`` (docs/guide/skills.md#anchored-fine-tuning).
+
+    Attributes:
+        data: the anchor transitions (their states and actions; their rewards are not used).
+        teacher: the ensemble the training starts from, frozen.
+        weight: the anchor loss's weight against the labelled loss.
+    """
+
+    data: SkillTensors
+    teacher: QEnsemble | RelationalQEnsemble
+    weight: float
+
+    def loss(self, network: nn.Module, index: torch.Tensor, generator: torch.Generator) -> torch.Tensor:
+        """BCE of each member to its teacher member on the anchor states ``index``, each with its
+        stored action and with a uniform one (where a planner's search also goes)."""
+        states = self.data.states(index, generator)
+        uniform = torch.rand(self.data.actions[index].shape, generator=generator) * 2.0 - 1.0
+        states, actions = torch.cat([states, states]), torch.cat([self.data.actions[index], uniform])
+        with torch.no_grad():
+            targets = self.teacher.probabilities(states, actions)
+        return nn.functional.binary_cross_entropy_with_logits(network(states, actions), targets)
+
+
 class QStage(Stage):
     """BCE of every member's sigmoid to the reward. All members see the same batch, or with
     ``ensemble_batches="bootstrap"`` member ``b`` sees the same batch positions of its own resample
-    (with replacement, fixed by the seed) of the training set."""
+    (with replacement, fixed by the seed) of the training set. With an :class:`Anchor`, each step adds
+    its weighted loss on a batch of anchor states of the same size."""
 
     model = "q"
 
     def __init__(
-        self, train: SkillTensors, validation: SkillTensors, settings: StageSettings, network: QEnsemble | RelationalQEnsemble | None = None
+        self, train: SkillTensors, validation: SkillTensors, settings: StageSettings, network: QEnsemble | RelationalQEnsemble | None = None,
+        anchor: Anchor | None = None,
     ) -> None:
         self.train, self.validation = train, validation
         self.network = network if network is not None else QEnsemble()
+        self.anchor = anchor
         self.resample: torch.Tensor | None = None
         if settings.ensemble_batches == "bootstrap":
             generator = torch.Generator().manual_seed(settings.seed + 1)
@@ -143,11 +175,17 @@ class QStage(Stage):
             logits = self.network(states, self.train.actions[flat].reshape(*members.shape, -1))
             targets = self.train.rewards[members].T
         loss = nn.functional.binary_cross_entropy_with_logits(logits, targets)
+        record = {"loss": loss.item()}
+        if self.anchor is not None:
+            anchor_index = torch.randint(len(self.anchor.data), (index.shape[0],), generator=generator)
+            anchor_loss = self.anchor.loss(self.network, anchor_index, generator)
+            loss = loss + self.anchor.weight * anchor_loss
+            record["anchor_loss"] = anchor_loss.item()
         self.optimizer.zero_grad(set_to_none=True)
         loss.backward()
         self.optimizer.step()
         self.schedule.step()
-        return {"loss": loss.item()}
+        return record
 
     @torch.no_grad()
     def evaluate(self) -> Evaluation:
@@ -426,6 +464,7 @@ def train_skill(
     simulator: str = "mujoco",
     more_train: tuple[Path, ...] = (),
     init_from: Path | None = None,
+    anchor: tuple[Path, ...] = (),
 ) -> dict[str, Any]:
     """Train ``models`` (in the order q, policy, dynamics) of ``skill`` from the dataset ``data``
     (``DIR`` of ``t2m datagen``) into the checkpoint directory ``checkpoint``.
@@ -437,6 +476,11 @@ def train_skill(
     each trained model instead of a fresh initialisation: fine-tuning on new data, such as the
     planner's own proposals (docs/guide/skills.md#proposal-data), when the data that trained those
     weights is not at hand. The checkpoint records the starting weights' digest.
+
+    ``anchor`` names dataset directories whose ``<skill>/train`` splits the Q-ensemble learns from
+    the ``init_from`` ensemble's predictions instead of their labels (a directory also given as
+    ``data`` or ``more_train`` is then left out of the labelled set): fine-tuning on a new situation
+    without forgetting the others (docs/guide/skills.md#anchored-fine-tuning).
 
     The policy is selected in episodes simulated by the simulator plugin ``simulator`` when its
     ``selection_episodes`` is positive (the default).
@@ -452,12 +496,21 @@ def train_skill(
     from t2m_skills_tableenv.checkpoints import load_weights
 
     settings = {model: _with_overrides(stage, overrides or {}) for model, stage in DEFAULT_SETTINGS.items()}
+    anchor_dirs = tuple(Path(d) / skill / "train" for d in anchor)
+    if anchor_dirs and (init_from is None or "q" not in models):
+        raise T2MError("anchor data keep what a starting Q-ensemble predicts there", "add --init-from CHECKPOINTS and train the q model")
     train_dir, validation_dir = Path(data) / skill / "train", Path(data) / skill / "validation"
     more_dirs = tuple(Path(d) / skill / "train" for d in more_train)
-    train, validation = SkillTensors.load(train_dir, *more_dirs), SkillTensors.load(validation_dir)
+    anchored = {d.resolve() for d in anchor_dirs}
+    labelled = [d for d in (train_dir, *more_dirs) if d.resolve() not in anchored]
+    if not labelled:
+        raise T2MError("every training split is anchor data: nothing is left to learn from labels", "add --more-train with the new situation's data")
+    train, validation = SkillTensors.load(*labelled), SkillTensors.load(validation_dir)
     digests: dict[str, Any] = {"train": manifest_digest(train_dir), "validation": manifest_digest(validation_dir)}
     if more_dirs:
         digests["more_train"] = [manifest_digest(d) for d in more_dirs]
+    if anchor_dirs:
+        digests["anchor"] = [manifest_digest(d) for d in anchor_dirs]
     if init_from is not None:
         from t2m_core.data.proposals import checkpoint_digest
 
@@ -471,7 +524,11 @@ def train_skill(
         torch.manual_seed(stage_settings.seed)
         stage_train = train.head(stage_settings.train_size)
         if model == "q":
-            stage: Stage = QStage(stage_train, validation, stage_settings, build_q(q_architecture(skill, stage_settings.q_network)))
+            anchor_data = None
+            if anchor_dirs:
+                anchor_data = Anchor(SkillTensors.load(*anchor_dirs), load_q(Path(init_from) / skill).eval(), stage_settings.anchor_weight)
+            network = build_q(q_architecture(skill, stage_settings.q_network))
+            stage: Stage = QStage(stage_train, validation, stage_settings, network, anchor_data)
         elif model == "policy":
             q_ensemble = load_q(checkpoint)
             simulate = _simulated_selection(skill, simulator, stage_settings.selection_episodes) if stage_settings.selection_episodes else None

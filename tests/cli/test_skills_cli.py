@@ -4,6 +4,7 @@ learning-curve prefix, record it, and calibrate what planning would do with inva
 from __future__ import annotations
 
 import json
+import shutil
 
 import numpy as np
 import pytest
@@ -121,6 +122,30 @@ def test_init_from_starts_training_from_another_checkpoints_weights(dataset, tmp
     assert config["training"]["learning_rate"] == 1e-12
     missing = runner.invoke(app, ["train", *common, "--init-from", str(tmp_path / "nowhere"), "--out", str(tmp_path / "x")])
     assert missing.exit_code != 0 and "no pick checkpoint" in missing.output
+
+
+def test_anchor_data_are_recorded_and_need_a_starting_ensemble(dataset, tmp_path) -> None:
+    from t2m_core.data.generate import manifest_digest
+
+    base, tuned = tmp_path / "base", tmp_path / "tuned"
+    common = ["--skill", "pick", "--model", "q", "--data", str(dataset), "--steps", "2", "--eval-every", "1"]
+    assert runner.invoke(app, ["train", *common, "--out", str(base)]).exit_code == 0
+    refused = runner.invoke(app, ["train", *common, "--anchor", str(dataset), "--out", str(tmp_path / "x")])
+    assert refused.exit_code != 0 and "--init-from" in refused.output
+    # the dataset's own train split as the anchor leaves no labelled data: a clear error, nothing trained
+    empty = runner.invoke(app, ["train", *common, "--init-from", str(base), "--anchor", str(dataset), "--out", str(tmp_path / "y")])
+    assert empty.exit_code != 0 and "nothing is left to learn" in empty.output and not (tmp_path / "y").exists()
+    result = runner.invoke(app, ["train", *common, "--init-from", str(base), "--more-train", str(dataset), "--anchor", str(dataset),
+                                 "--anchor-weight", "2.5", "--out", str(tuned)])
+    assert result.exit_code != 0 and "nothing is left to learn" in result.output  # the same directory twice is still one anchor
+    other = tmp_path / "other"
+    shutil.copytree(dataset / "pick" / "train", other / "pick" / "train")
+    result = runner.invoke(app, ["train", *common, "--init-from", str(base), "--anchor", str(other), "--anchor-weight", "2.5", "--out", str(tuned)])
+    assert result.exit_code == 0, result.output
+    q = json.loads((tuned / "pick" / "config.json").read_text())["models"]["q"]
+    assert q["data"]["anchor"] == [manifest_digest(other / "pick" / "train")] and q["training"]["anchor_weight"] == 2.5
+    curve = [json.loads(line) for line in (tuned / "pick" / "metrics-q.jsonl").read_text().splitlines()]
+    assert len(curve) == 2 and all("train_anchor_loss" in record for record in curve)
 
 
 def test_a_relational_ensemble_is_trained_loaded_and_fine_tuned_only_as_one(dataset, tmp_path) -> None:

@@ -14,7 +14,7 @@ from t2m_core.language.session import LanguageSession
 from t2m_core.protocols import PlanningContext
 from t2m_core.testing import check_task_planner
 from t2m_planners.lookahead import LookaheadPlanner
-from t2m_planners.options import LookaheadOptions
+from t2m_planners.options import HybridOptions, LookaheadOptions
 from tests.plugins.t2m_planners.planner_doubles import RuleModel, SymbolicFeasibility
 
 OBJECTS = ("table", "rack", "red_box", "blue_box")
@@ -72,6 +72,18 @@ def test_hybrid_falls_back_to_a_greedy_step_then_shoots_again_from_the_prefix() 
     assert model.requests[:3] == ["shooting", "next", "score"]
     assert [str(c) for c in result.skeleton] == ["pick(red_box)", "place(red_box, rack)"]
     assert feasibility.calls[-1] == ["pick(red_box)", "place(red_box, rack)"]
+
+
+def test_hybrid_without_reshooting_lets_the_greedy_steps_finish_the_plan() -> None:
+    model = RuleModel(sequences="[['place(red_box, rack)']]", next_skills=["['pick(red_box)']", "['place(red_box, rack)']"],
+                      scores={"pick(red_box)": -1.0, "place(red_box, rack)": -1.0})
+    options = HybridOptions(reshoot="never", proposals="generated")
+    result = check_task_planner(LookaheadPlanner(options, "hybrid"), context(model, SymbolicFeasibility()))
+    # one shooting query from the empty prefix (infeasible), then greedy steps only: the second step's
+    # goal-reaching candidate ends the search without a second shooting query
+    assert model.requests == ["shooting", "next", "score", "next", "score"]
+    assert [str(c) for c in result.skeleton] == ["pick(red_box)", "place(red_box, rack)"] and result.llm_calls == 5
+    assert HybridOptions().reshoot == "every_step"  # the published interleaving stays the default
 
 
 def test_planning_fails_after_the_depth_budget() -> None:

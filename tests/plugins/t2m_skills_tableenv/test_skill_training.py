@@ -12,7 +12,7 @@ import torch
 from t2m_core.errors import T2MError
 from t2m_skills_tableenv.dataset import SkillTensors, shuffle_rows
 from t2m_skills_tableenv.networks import QEnsemble
-from t2m_skills_tableenv.training import DynamicsStage, PolicyStage, QStage, StageSettings, q_metrics, run_stage
+from t2m_skills_tableenv.training import Anchor, DynamicsStage, PolicyStage, QStage, StageSettings, q_metrics, run_stage
 
 
 def synthetic(count: int, seed: int) -> SkillTensors:
@@ -204,3 +204,54 @@ def test_shuffling_permutes_only_the_rows_in_each_samples_range() -> None:
             assert sorted(shuffled[sample, start:stop, 0].tolist()) == rows[sample, start:stop, 0].tolist()
             seen_changes += int(not torch.equal(shuffled[sample], rows[sample]))
     assert seen_changes > 20
+
+
+def _situations(count: int, seed: int, new: bool) -> SkillTensors:
+    """The synthetic problem's old situation (row 0, feature 1 in [−0.5, 0]: success when a₀ > 2·s₀) or a
+    new one (feature 1 in [0.25, 0.5], where the rule is reversed: success when a₀ < 2·s₀)."""
+    data = synthetic(count, seed)
+    low = 0.25 if new else -0.5
+    data.rows[:, 0, 1] = low + 0.25 * (1 + (not new)) * torch.rand(count, generator=torch.Generator().manual_seed(seed + 100))
+    if new:
+        data.rewards = 1.0 - data.rewards
+    return data
+
+
+def _accuracy(network: QEnsemble, data: SkillTensors) -> float:
+    return q_metrics(network, data)["accuracy"]
+
+
+def test_anchored_fine_tuning_learns_the_new_situation_without_forgetting_the_old(tmp_path) -> None:
+    old_train, old_validation = _situations(2048, 0, False), _situations(512, 1, False)
+    new_train, new_validation = _situations(1024, 2, True), _situations(512, 3, True)
+    settings = StageSettings(steps=800, batch_size=128, learning_rate=3e-3, eval_every=800)
+    teacher = QStage(old_train, old_validation, settings)
+    run_stage(teacher, settings, tmp_path / "teacher")
+    assert _accuracy(teacher.network, old_validation) > 0.85 and _accuracy(teacher.network, new_validation) < 0.3
+
+    def fine_tuned(anchor: Anchor | None, directory: str) -> QEnsemble:
+        network = QEnsemble()
+        network.load_state_dict(teacher.network.state_dict())
+        stage = QStage(new_train, new_validation, settings, network, anchor)
+        run_stage(stage, settings, tmp_path / directory)
+        return stage.network
+
+    plain = fine_tuned(None, "plain")
+    anchored = fine_tuned(Anchor(old_train, teacher.network.eval(), 1.0), "anchored")
+    assert _accuracy(plain, new_validation) > 0.8 and _accuracy(anchored, new_validation) > 0.8
+    # fine-tuning on the new situation alone forgets the old one; the anchor keeps it
+    assert _accuracy(plain, old_validation) < 0.6
+    assert _accuracy(anchored, old_validation) > 0.85
+    curve = [json.loads(line) for line in (tmp_path / "anchored" / "metrics-q.jsonl").read_text().splitlines()]
+    assert "train_anchor_loss" in curve[-1]
+
+
+def test_anchor_data_need_a_starting_ensemble_and_labelled_data(tmp_path) -> None:
+    from t2m_skills_tableenv.training import train_skill
+
+    with pytest.raises(T2MError, match="--init-from"):
+        train_skill("pick", ("q",), tmp_path / "data", tmp_path / "out", anchor=(tmp_path / "old",))
+    with pytest.raises(T2MError, match="--init-from"):
+        train_skill("pick", ("policy",), tmp_path / "data", tmp_path / "out", init_from=tmp_path / "ship", anchor=(tmp_path / "old",))
+    with pytest.raises(T2MError, match="nothing is left to learn"):
+        train_skill("pick", ("q",), tmp_path / "data", tmp_path / "out", init_from=tmp_path / "ship", anchor=(tmp_path / "data",))
