@@ -50,5 +50,7 @@ def test_paper_search_restores_the_published_greedy_step_in_hybrid() -> None:
     assert config.task_planner.name == "hybrid"
     published = HybridOptions(**config.task_planner.options)
     assert (published.proposals, published.revisits, published.below_tau, published.backtracks) == ("generated", "allow", "allow", 0)
-    assert published.model_dump() == LookaheadOptions().model_dump()  # greedy-search's defaults are the published ones
+    assert published.reshoot == "every_step"  # the published interleaving: shooting again after every greedy step
+    # greedy-search's defaults are the published ones
+    assert published.model_dump(exclude={"reshoot"}) == LookaheadOptions().model_dump()
     assert HybridOptions().model_dump() != LookaheadOptions().model_dump()
