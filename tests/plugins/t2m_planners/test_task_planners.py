@@ -83,7 +83,7 @@ def test_hybrid_without_reshooting_lets_the_greedy_steps_finish_the_plan() -> No
     # goal-reaching candidate ends the search without a second shooting query
     assert model.requests == ["shooting", "next", "score", "next", "score"]
     assert [str(c) for c in result.skeleton] == ["pick(red_box)", "place(red_box, rack)"] and result.llm_calls == 5
-    assert HybridOptions().reshoot == "every_step"  # the published interleaving stays the default
+    assert HybridOptions().reshoot == "never"  # hybrid's default (the published interleaving: paper-search.yaml)
 
 
 def test_planning_fails_after_the_depth_budget() -> None:
