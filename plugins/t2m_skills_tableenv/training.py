@@ -126,9 +126,9 @@ class Anchor:
     def loss(self, network: nn.Module, index: torch.Tensor, generator: torch.Generator) -> torch.Tensor:
         """BCE of each member to its teacher member on the anchor states ``index``, each with its
         stored action and with a uniform one (where a planner's search also goes)."""
-        states = self.data.states(index, generator)
-        uniform = torch.rand(self.data.actions[index].shape, generator=generator) * 2.0 - 1.0
-        states, actions = torch.cat([states, states]), torch.cat([self.data.actions[index], uniform])
+        states, stored = self.data.states(index, generator), self.data.actions[index]
+        uniform = torch.rand(stored.shape, generator=generator) * 2.0 - 1.0
+        states, actions = torch.cat([states, states]), torch.cat([stored, uniform])
         with torch.no_grad():
             targets = self.teacher.probabilities(states, actions)
         return nn.functional.binary_cross_entropy_with_logits(network(states, actions), targets)
@@ -497,8 +497,10 @@ def train_skill(
 
     settings = {model: _with_overrides(stage, overrides or {}) for model, stage in DEFAULT_SETTINGS.items()}
     anchor_dirs = tuple(Path(d) / skill / "train" for d in anchor)
-    if anchor_dirs and (init_from is None or "q" not in models):
-        raise T2MError("anchor data keep what a starting Q-ensemble predicts there", "add --init-from CHECKPOINTS and train the q model")
+    if anchor_dirs and (init_from is None or tuple(models) != ("q",)):
+        # the policy and dynamics would otherwise train on the labelled splits alone
+        raise T2MError("anchor data keep what a starting Q-ensemble predicts there: they need --init-from and the Q-ensemble "
+                       "trained alone", "add --init-from CHECKPOINTS and --model q")
     train_dir, validation_dir = Path(data) / skill / "train", Path(data) / skill / "validation"
     more_dirs = tuple(Path(d) / skill / "train" for d in more_train)
     anchored = {d.resolve() for d in anchor_dirs}

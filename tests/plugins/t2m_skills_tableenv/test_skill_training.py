@@ -251,7 +251,8 @@ def test_anchor_data_need_a_starting_ensemble_and_labelled_data(tmp_path) -> Non
 
     with pytest.raises(T2MError, match="--init-from"):
         train_skill("pick", ("q",), tmp_path / "data", tmp_path / "out", anchor=(tmp_path / "old",))
-    with pytest.raises(T2MError, match="--init-from"):
-        train_skill("pick", ("policy",), tmp_path / "data", tmp_path / "out", init_from=tmp_path / "ship", anchor=(tmp_path / "old",))
+    for models in (("policy",), ("q", "policy", "dynamics")):  # the other models would lose the anchor splits
+        with pytest.raises(T2MError, match="--model q"):
+            train_skill("pick", models, tmp_path / "data", tmp_path / "out", init_from=tmp_path / "ship", anchor=(tmp_path / "old",))
     with pytest.raises(T2MError, match="nothing is left to learn"):
         train_skill("pick", ("q",), tmp_path / "data", tmp_path / "out", init_from=tmp_path / "ship", anchor=(tmp_path / "data",))
