@@ -268,8 +268,8 @@ class LookaheadPlanner:
                 dead_end = f"no goal-reaching plan within {d_max} skills" if len(prefix) >= d_max else (
                     "no candidate next skill can be chosen (each returns to a situation already on the plan or has a step at or below tau)")
                 ended = (prefix, prefix_plan)
-                while not ranked and alternatives and backtracks < self.options.backtracks:
-                    prefix, prefix_plan, ranked = alternatives.pop()
+                if backtracks < self.options.backtracks:
+                    prefix, prefix_plan, ranked = resume(alternatives, self.options.backtrack_to)
                 if not ranked:
                     return search.result(*ended, dead_end)
                 backtracks += 1
@@ -278,6 +278,26 @@ class LookaheadPlanner:
             if len(prefix) + 1 < d_max:  # at the last step no other candidate reached the goal: none to resume
                 alternatives.append((prefix, prefix_plan, ranked))
             prefix, prefix_plan = prefix + [best.call], best.plan
+
+
+def resume(
+    alternatives: list[tuple[list[SkillCall], PlanResult | None, list[Candidate]]], order: str
+) -> tuple[list[SkillCall], PlanResult | None, list[Candidate]]:
+    """Take, from the candidates left at earlier greedy steps (``alternatives``: one entry per step
+    taken, each with its remaining candidates, best S_skill first), the step a dead end resumes at,
+    with the candidate to take next moved to the front of its list: the latest step with one left
+    (``"latest"``), or the candidate whose planned prefix has the largest masked p_success
+    (``"most_feasible"``). The empty list of candidates when none is left."""
+    while alternatives and not alternatives[-1][2]:
+        alternatives.pop()
+    if not alternatives:
+        return [], None, []
+    if order == "latest":
+        return alternatives.pop()
+    options = [(float(np.prod(masked_values(c.plan))), i, j) for i, (_, _, ranked) in enumerate(alternatives) for j, c in enumerate(ranked)]
+    _, i, j = max(options, key=lambda item: (item[0], item[1], -item[2]))  # ties: the later step, then the better score
+    prefix, prefix_plan, ranked = alternatives.pop(i)
+    return prefix, prefix_plan, [ranked[j], *ranked[:j], *ranked[j + 1 :]]
 
 
 def hybrid(options: HybridOptions) -> LookaheadPlanner:

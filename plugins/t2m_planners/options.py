@@ -55,6 +55,12 @@ class LookaheadOptions(PlannerOptions):
         "step's next-best candidate, at most this many per episode (0: the dead end fails the search, as the "
         "paper's beam of one)",
     )
+    backtrack_to: Literal["latest", "most_feasible"] = Field(
+        "latest",
+        description="where a dead end resumes: at the latest earlier step's next-best candidate (latest, "
+        "depth first), or at the candidate, of any earlier step, whose planned prefix has the largest masked "
+        "p_success (most_feasible)",
+    )
 
 
 class MyopicOptions(PlannerOptions):

@@ -155,3 +155,23 @@ def test_backtracking_never_resumes_the_last_step_where_no_candidate_reached_the
     # d_max ends the red branch; only the first step's other candidate is worth resuming
     assert [e["chosen"] for e in events if e["event"] == "backtrack"] == ["pick(blue_box)"]
     assert [str(c) for c in result.skeleton][0] == "pick(blue_box)"
+
+
+@pytest.mark.parametrize("order", ["latest", "most_feasible"])
+def test_a_dead_end_resumes_at_the_latest_step_or_at_the_most_feasible_planned_prefix(order: str) -> None:
+    # the blue branch needs more than d_max = 3 skills; the root's other candidate, pick(red_box), is
+    # planned with p_success 0.9, the second step's other one, place(blue_box, table), with 0.9 · 0.9
+    model = RuleModel(scores={"pick(blue_box)": -1.0, "pick(red_box)": -3.0, "place(blue_box, rack)": -1.0})
+    feasibility = SymbolicFeasibility(values={"place(blue_box, rack)": 0.5})
+    events: list = []
+    options = LookaheadOptions(proposals="grounded", max_depth=3, backtracks=1, backtrack_to=order)
+    result = LookaheadPlanner(options, "greedy-search").plan(context(model, feasibility, events))
+    steps = [e for e in events if e["event"] == "greedy_step"]
+    assert [next(c["skill"] for c in s["candidates"] if c["chosen"]) for s in steps[:2]] == ["pick(blue_box)", "place(blue_box, rack)"]
+    resumed = [(e["prefix"], e["chosen"]) for e in events if e["event"] == "backtrack"]
+    if order == "latest":
+        assert resumed[0][0] == ["pick(blue_box)"] and resumed[0][1] != "place(blue_box, rack)"
+        assert not result.found  # the one backtrack is spent in the blue branch
+    else:
+        assert resumed == [([], "pick(red_box)")]
+        assert result.found and [str(c) for c in result.skeleton] == ["pick(red_box)", "place(red_box, rack)"]
