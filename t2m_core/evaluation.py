@@ -2,7 +2,8 @@
 
 One episode per (planner, task, seed), each in its own run directory ``OUT/<planner>/<task>/seed<N>``.
 The grid is resumable: an episode whose ``result.json`` exists and was not interrupted is kept; any
-other is run again. Episodes are the tasks of an executor (local worker processes or a Ray cluster,
+other is run again. A kept episode must have been run with the configuration the grid asks for
+(:func:`config_conflicts`), so that one table never mixes two configurations. Episodes are the tasks of an executor (local worker processes or a Ray cluster,
 :mod:`t2m_core.executors`), each writing its own run directory. Base seeds are spaced
 :data:`SEED_SPACING` apart so that no two episodes of a task share an accepted scene (a reset walks
 from its base seed to the first accepted candidate).
@@ -15,7 +16,7 @@ import functools
 import io
 import json
 from collections import defaultdict
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -60,6 +61,60 @@ def finished(episode: Episode, out: Path) -> dict[str, Any] | None:
     return None if result.get("interrupted") else result
 
 
+def config_conflicts(recorded: Mapping[str, Any], requested: Mapping[str, Any], prefix: str = "") -> list[str]:
+    """``key: recorded -> requested`` for every configuration value that differs between a finished
+    episode's ``config.yaml`` and the configuration the grid resolves for it. Keys the record lacks
+    (options added since it ran) are not compared."""
+    conflicts = []
+    for key, value in requested.items():
+        if key not in recorded:
+            continue
+        path = f"{prefix}{key}"
+        if isinstance(value, Mapping) and isinstance(recorded[key], Mapping):
+            conflicts += config_conflicts(recorded[key], value, path + ".")
+        elif recorded[key] != value:
+            conflicts.append(f"{path}: {recorded[key]!r} -> {value!r}")
+    return conflicts
+
+
+def check_finished_configs(episodes: Sequence[Episode], out: Path, base_overrides: Sequence[str]) -> None:
+    """Refuse to resume ``out`` when a finished episode ran with another configuration.
+
+    Raises:
+        ConfigError: naming each such run directory and the values that differ.
+    """
+    import yaml
+
+    from t2m_core.config.resolve import resolve_config
+    from t2m_core.errors import ConfigError
+    from t2m_core.registry import get_registry
+
+    problems = []
+    for episode in episodes:
+        path = episode.directory(out) / "config.yaml"
+        try:
+            recorded = yaml.safe_load(path.read_text(encoding="utf-8"))
+        except (OSError, yaml.YAMLError):
+            continue  # no readable record: nothing to compare
+        if not isinstance(recorded, dict):
+            continue
+        config = resolve_config(flags=_flags(episode), overrides=base_overrides, registry=get_registry())
+        conflicts = config_conflicts(recorded, config.model_dump(mode="json"))
+        if conflicts:
+            problems.append(f"  {episode.directory(out)}: " + "; ".join(conflicts))
+    if problems:
+        shown = problems[:5] + ([f"  ... and {len(problems) - 5} more"] if len(problems) > 5 else [])
+        raise ConfigError(
+            f"{len(problems)} finished episode{'s' if len(problems) > 1 else ''} in {out} ran with another configuration "
+            f"than this evaluation asks for:\n" + "\n".join(shown),
+            hint="evaluate into another --out directory, or delete those run directories to run them again",
+        )
+
+
+def _flags(episode: Episode) -> dict[str, Any]:
+    return {"planner": episode.planner, "task": episode.task, "seed": episode.seed}
+
+
 def run_grid(
     episodes: Sequence[Episode],
     out: Path,
@@ -84,6 +139,7 @@ def run_grid(
     out = Path(out).resolve()  # a worker's working directory is not the driver's
     executor = executor or LocalExecutor(workers)
     results = {e: r for e in episodes if (r := finished(e, out)) is not None}
+    check_finished_configs(list(results), out, base_overrides)
     pending = [e for e in episodes if e not in results]
     if pending:
         out.mkdir(parents=True, exist_ok=True)
@@ -101,8 +157,7 @@ def _run_one(episode: Episode, *, out: Path, overrides: list[str]) -> dict[str, 
     from t2m_core.episode import run_episode
     from t2m_core.registry import get_registry
 
-    flags = {"planner": episode.planner, "task": episode.task, "seed": episode.seed}
-    config = resolve_config(flags=flags, overrides=overrides, registry=get_registry())
+    config = resolve_config(flags=_flags(episode), overrides=overrides, registry=get_registry())
     directory = episode.directory(out)
     if directory.exists():  # an interrupted attempt: start its records afresh
         for name in ("plan_tree.jsonl", "transcript.jsonl"):

@@ -44,3 +44,28 @@ def test_the_table_counts_success_and_failure_types_per_task_and_overall(tmp_pat
     assert "| hybrid | all | 4 | 0.5 |" in (tmp_path / "results.md").read_text()
     assert (tmp_path / "success.png").read_bytes()[:4] == b"\x89PNG"
     assert (tmp_path / "results.csv").read_text().splitlines()[0].startswith("planner,task,episodes,success")
+
+
+def test_resuming_refuses_finished_episodes_run_with_another_configuration(tmp_path) -> None:
+    import pytest
+    import yaml
+
+    from t2m_core.config.resolve import resolve_config
+    from t2m_core.errors import ConfigError
+    from t2m_core.evaluation import check_finished_configs, config_conflicts, run_grid
+    from t2m_core.registry import get_registry
+
+    episode = Episode("hybrid", "task0", 0)
+    directory = episode.directory(tmp_path)
+    directory.mkdir(parents=True)
+    (directory / "result.json").write_text(json.dumps(result(True, None, 3.0)))
+    config = resolve_config(flags={"planner": "hybrid", "task": "task0", "seed": 0}, registry=get_registry()).model_dump(mode="json")
+    del config["task_planner"]["options"]["backtracks"]  # a record from before an option existed
+    config["task_planner"]["options"]["tau"] = 0.3
+    (directory / "config.yaml").write_text(yaml.safe_dump(config))
+    assert config_conflicts({"a": {"b": 1, "c": 2}}, {"a": {"b": 1, "c": 3, "d": 4}}) == ["a.c: 2 -> 3"]
+    check_finished_configs([episode], tmp_path, ["task_planner.options.tau=0.3"])  # the same values: resumable
+    with pytest.raises(ConfigError) as error:
+        run_grid([episode], tmp_path, [], executor=object())  # refused before any episode would run
+    assert "task_planner.options.tau: 0.3 -> 0.2" in str(error.value) and str(directory) in str(error.value)
+    assert "another --out" in error.value.hint
