@@ -16,7 +16,7 @@ import numpy as np
 
 from t2m_core.domain.goals import goal_satisfied
 from t2m_core.domain.observation import decode_observation
-from t2m_core.domain.relations import situation
+from t2m_core.domain.relations import situation, symbolic_state
 from t2m_core.domain.skills import SkillCall
 from t2m_core.domain.state import GeometricState
 from t2m_core.language.prompts import HistoryStep
@@ -51,6 +51,8 @@ class Candidate:
     feasibility: float
     revisit: bool = False
     """Its predicted situation repeats one already on the planned path (docs/guide/planners.md#revisited-states)."""
+    regression: bool = False
+    """Its predicted state satisfies fewer goal propositions than the planned prefix's (docs/guide/planners.md#regressions)."""
 
     @property
     def score(self) -> float:
@@ -175,14 +177,17 @@ class Search:
         plans = [self.stap(prefix + [call]) for call in calls]
         scored = self.context.session.score(self.context.goal, prefix, calls, history=history)
         self.llm_calls += 1
-        path = self.path_states(prefix_plan, prefix) if self.options.revisits == "skip" else []
+        path = self.path_states(prefix_plan, prefix)
         visited = {situation(state, self.objects) for state in path}
+        reached = self.context.goal.progress(symbolic_state(path[-1], self.objects))
         candidates = []
         for call, plan, logprob, usefulness in zip(calls, plans, scored.logprobs, scored.usefulness, strict=True):
             masked = masked_values(plan)
             feasibility = float(masked[-1]) if self.options.geometric_score == "last" else float(np.prod(masked))
-            revisit = bool(path) and situation(self.settled(path[-1], plan.states[-1], call), self.objects) in visited
-            candidates.append(Candidate(call, plan, float(logprob), float(usefulness), feasibility, revisit))
+            after = self.settled(path[-1], plan.states[-1], call)
+            revisit = situation(after, self.objects) in visited
+            regression = self.context.goal.progress(symbolic_state(after, self.objects)) < reached
+            candidates.append(Candidate(call, plan, float(logprob), float(usefulness), feasibility, revisit, regression))
         return candidates
 
     def terminal(self, prefix: list[SkillCall], candidates: list[Candidate]) -> Candidate | None:
@@ -193,11 +198,13 @@ class Search:
 
     def ranked(self, prefix: list[SkillCall], candidates: list[Candidate]) -> list[Candidate]:
         """The candidates the search may append, best S_skill first: all of them, as in the paper,
-        less revisits (``revisits="skip"``) and those with a step at or below τ (``below_tau="skip"``)."""
+        less revisits (``revisits="skip"``), regressions (``regressions="skip"``) and those with a step
+        at or below τ (``below_tau="skip"``)."""
         steps = len(prefix) + 1
         kept = [
             c for c in candidates
-            if not (self.options.revisits == "skip" and c.revisit) and not (self.options.below_tau == "skip" and not self.ok(c.plan, steps))
+            if not (self.options.revisits == "skip" and c.revisit) and not (self.options.regressions == "skip" and c.regression)
+            and not (self.options.below_tau == "skip" and not self.ok(c.plan, steps))
         ]
         return sorted(kept, key=lambda c: -c.score)
 
@@ -215,6 +222,7 @@ class Search:
                     **self.plan_fields(c.plan),
                     "chosen": c is chosen,
                     "revisit": c.revisit,
+                    "regression": c.regression,
                     "goal_reached": terminal and c is chosen,
                 }
                 for c in candidates

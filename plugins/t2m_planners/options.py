@@ -47,6 +47,12 @@ class LookaheadOptions(PlannerOptions):
         description="greedy candidates whose plan has a masked step value at or below tau, so that no plan through "
         "them can be accepted: chosen like any other (allow, paper) or never chosen (skip)",
     )
+    regressions: AllowOrSkip = Field(
+        "allow",
+        description="greedy candidates whose predicted state satisfies fewer of the goal's propositions (in its "
+        "best alternative) than the planned prefix does, such as taking a box off the rack the goal wants it on: "
+        "chosen like any other (allow, paper) or never chosen (skip)",
+    )
     backtracks: int = Field(
         0,
         ge=0,

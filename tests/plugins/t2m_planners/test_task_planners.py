@@ -175,3 +175,23 @@ def test_a_dead_end_resumes_at_the_latest_step_or_at_the_most_feasible_planned_p
     else:
         assert resumed == [([], "pick(red_box)")]
         assert result.found and [str(c) for c in result.skeleton] == ["pick(red_box)", "place(red_box, rack)"]
+
+
+def test_skipping_regressions_never_takes_a_box_off_the_rack_the_goal_wants_it_on() -> None:
+    goal = parse_goal("[['on(red_box, rack)', 'on(blue_box, rack)']]")
+
+    def third(regressions: str) -> tuple[str, dict]:
+        model = RuleModel(next_skills=["['pick(red_box)']", "['place(red_box, rack)']", "['pick(red_box)', 'pick(blue_box)']"],
+                          scores={"pick(red_box)": -1.0, "pick(blue_box)": -3.0})
+        events: list = []
+        planning = context(model, SymbolicFeasibility(), events)
+        planning = PlanningContext(planning.instruction, goal, planning.session, planning.skills, planning.feasibility,
+                                   planning.object_names, planning.observation, on_event=planning.on_event)
+        result = LookaheadPlanner(LookaheadOptions(max_depth=3, regressions=regressions), "greedy-search").plan(planning)
+        step = [e for e in events if e["event"] == "greedy_step"][2]
+        return str(result.skeleton[2]), {c["skill"]: c["regression"] for c in step["candidates"]}
+
+    # after red is on the rack, the model prefers picking it up again: one goal proposition fewer
+    chosen, flags = third("allow")
+    assert chosen == "pick(red_box)" and flags == {"pick(red_box)": True, "pick(blue_box)": False}
+    assert third("skip")[0] == "pick(blue_box)"
