@@ -13,7 +13,7 @@ import click
 import typer
 from typer.core import TyperGroup
 
-from t2m_core.cli import config_cmd, datagen_cmd, eval_cmd, llm_cmd, plan_cmd, plugins_cmd, run_cmd, sim_cmd, skills_cmd, tasks_cmd, train_cmd
+from t2m_core.cli import config_cmd, datagen_cmd, eval_cmd, llm_cmd, plan_cmd, plugins_cmd, run_cmd, show_cmd, sim_cmd, skills_cmd, tasks_cmd, train_cmd
 from t2m_core.errors import T2MError
 
 USER_ERROR_EXIT_CODE = 2
@@ -80,6 +80,7 @@ train_cmd.register(app)
 skills_cmd.register(app)
 plan_cmd.register(app)
 run_cmd.register(app)
+show_cmd.register(app)
 eval_cmd.register(app)
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import time
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
 import typer
 
@@ -28,6 +28,7 @@ def run(
     it closed loop in the simulator and check the goal. Exits 0 only when the goal is reached."""
     from rich.console import Console
 
+    from t2m_core.cli.plan_tree_view import render_event
     from t2m_core.config.resolve import resolve_config
     from t2m_core.episode import run_episode
     from t2m_core.registry import get_registry
@@ -40,7 +41,7 @@ def run(
     console.print(f"[bold]{config.task}[/] seed {config.seed}: {config.task_planner.name if config.task_planner else '-'} planner, "
                   f"{config.language_model.name} language model, {config.simulator.name} -> {directory}")
     try:
-        result = run_episode(config, directory, instruction=instruction, on_event=lambda event: _show(console, event))
+        result = run_episode(config, directory, instruction=instruction, on_event=lambda event: render_event(console, event))
     except KeyboardInterrupt:
         console.print(f"[yellow]interrupted[/]: what happened so far is in {directory}")
         raise typer.Exit(130) from None
@@ -50,31 +51,6 @@ def run(
         typer.echo(json.dumps(result.as_dict(), indent=2))
     if not result.success:
         raise typer.Exit(1)
-
-
-def _show(console: Any, event: dict[str, Any]) -> None:
-    """One line per plan-tree record: what the planner is doing."""
-    kind = event.get("event")
-    if kind == "goal":
-        console.print(f"goal: {event['goal']}")
-    elif kind == "shooting_candidate":
-        mark = "[green]kept[/]" if event.get("kept") else "[dim]dropped[/]"
-        values = " ".join(f"{v:.2f}" for v in event.get("values", []))
-        console.print(f"  shooting {event['sequence']}: values [{values}] {mark} ({event.get('reason')})")
-    elif kind == "greedy_step":
-        for c in event.get("candidates", []):
-            mark = "[green]<-[/]" if c.get("chosen") else ("[dim]revisit[/]" if c.get("revisit") else "")
-            console.print(f"  greedy {c['skill']}: usefulness {c['usefulness']:.2f} x feasibility {c['feasibility']:.2f} = {c['score']:.3f} {mark}")
-    elif kind == "backtrack":
-        console.print(f"  [yellow]backtrack[/] ({event.get('reason')}): {event['prefix']} + {event['chosen']}")
-    elif kind == "myopic_step":
-        for c in event.get("candidates", []):
-            console.print(f"  {c['skill']}: usefulness {c['usefulness']:.2f} x value {c['value']:.2f}{' <-' if c.get('chosen') else ''}")
-    elif kind == "plan":
-        console.print(f"plan: {event['skeleton']} " + ("" if event.get("found") else f"[red]planning failure[/]: {event.get('failure')}"))
-    elif kind == "executed":
-        outcome = "[green]success[/]" if event.get("success") else f"[red]{event.get('failure')}[/]"
-        console.print(f"  executed {event['skill']}: {outcome}")
 
 
 def _default_directory(task: str, seed: int) -> Path:
