@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from t2m_core.domain.goals import goal_satisfied
+from t2m_core.domain.propositions import Proposition
 from t2m_core.domain.observation import decode_observation
 from t2m_core.domain.relations import situation, symbolic_state
 from t2m_core.domain.skills import SkillCall
@@ -52,7 +53,7 @@ class Candidate:
     revisit: bool = False
     """Its predicted situation repeats one already on the planned path (docs/guide/planners.md#revisited-states)."""
     regression: bool = False
-    """Its predicted state satisfies fewer goal propositions than the planned prefix's (docs/guide/planners.md#regressions)."""
+    """It undoes a goal proposition the planned prefix achieved (docs/guide/planners.md#regressions)."""
 
     @property
     def score(self) -> float:
@@ -111,6 +112,10 @@ class Search:
         for k, call in enumerate(prefix):
             states.append(self.settled(states[-1], plan.states[k + 1], call))
         return states
+
+    def achieved(self, state: GeometricState) -> frozenset[Proposition]:
+        """The goal's propositions (of any alternative) that hold in ``state``."""
+        return frozenset(self.context.goal.propositions).intersection(symbolic_state(state, self.objects))
 
     @staticmethod
     def plan_fields(plan: PlanResult) -> dict[str, Any]:
@@ -179,14 +184,14 @@ class Search:
         self.llm_calls += 1
         path = self.path_states(prefix_plan, prefix)
         visited = {situation(state, self.objects) for state in path}
-        reached = self.context.goal.progress(symbolic_state(path[-1], self.objects))
+        achieved = self.achieved(path[-1]) - self.achieved(path[0])
         candidates = []
         for call, plan, logprob, usefulness in zip(calls, plans, scored.logprobs, scored.usefulness, strict=True):
             masked = masked_values(plan)
             feasibility = float(masked[-1]) if self.options.geometric_score == "last" else float(np.prod(masked))
             after = self.settled(path[-1], plan.states[-1], call)
             revisit = situation(after, self.objects) in visited
-            regression = self.context.goal.progress(symbolic_state(after, self.objects)) < reached
+            regression = not achieved <= self.achieved(after)
             candidates.append(Candidate(call, plan, float(logprob), float(usefulness), feasibility, revisit, regression))
         return candidates
 

@@ -49,9 +49,9 @@ class LookaheadOptions(PlannerOptions):
     )
     regressions: AllowOrSkip = Field(
         "allow",
-        description="greedy candidates whose predicted state satisfies fewer of the goal's propositions (in its "
-        "best alternative) than the planned prefix does, such as taking a box off the rack the goal wants it on: "
-        "chosen like any other (allow, paper) or never chosen (skip)",
+        description="greedy candidates that undo a goal proposition the planned prefix achieved (one false in the "
+        "start state), such as taking a box off the rack the plan put it on: chosen like any other (allow, "
+        "paper) or never chosen (skip)",
     )
     backtracks: int = Field(
         0,
@@ -84,13 +84,17 @@ def _with_default(name: str, default: object) -> FieldInfo:
 class HybridOptions(LookaheadOptions):
     """Options of hybrid: the lookahead ones, with the search options of
     docs/guide/planners.md#search-options-beyond-the-paper on by default
-    (docs/guide/deviations.md#a-greedy-step-that-does-not-loop), and the shooting query only from the
-    empty prefix (docs/guide/deviations.md#one-shooting-query-per-episode)."""
+    (docs/guide/deviations.md#a-greedy-step-that-does-not-loop), τ = 0.1 for t2m's pessimistic
+    learned values (docs/guide/deviations.md#tau-01-for-pessimistic-values), and the shooting query
+    only from the empty prefix (docs/guide/deviations.md#one-shooting-query-per-episode)."""
 
     proposals: Literal["generated", "grounded"] = _with_default("proposals", "grounded")  # type: ignore[assignment]
     revisits: AllowOrSkip = _with_default("revisits", "skip")  # type: ignore[assignment]
     below_tau: AllowOrSkip = _with_default("below_tau", "skip")  # type: ignore[assignment]
     backtracks: int = _with_default("backtracks", 5)  # type: ignore[assignment]
+    regressions: AllowOrSkip = _with_default("regressions", "skip")  # type: ignore[assignment]
+    backtrack_to: Literal["latest", "most_feasible"] = _with_default("backtrack_to", "most_feasible")  # type: ignore[assignment]
+    tau: float = _with_default("tau", 0.1)  # type: ignore[assignment]
     reshoot: Literal["every_step", "never"] = Field(
         "never",
         description="shooting queries after the first: one after every greedy step, from the longer prefix "

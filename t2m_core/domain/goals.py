@@ -81,12 +81,6 @@ class Goal:
         return any(all(p in true for p in alternative) for alternative in self.alternatives)
 
 
-    def progress(self, relations: Iterable[Proposition | str]) -> int:
-        """The most propositions of one alternative that hold in ``relations`` (``len`` of that
-        alternative when the goal is satisfied)."""
-        true = {Proposition.coerce(r) for r in relations}
-        return max(sum(p in true for p in alternative) for alternative in self.alternatives)
-
 
 def parse_goal(text: str, *, extract: bool = False) -> Goal:
     """Parse a goal written as a Python/JSON list of lists of proposition strings.

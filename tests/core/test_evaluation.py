@@ -61,11 +61,12 @@ def test_resuming_refuses_finished_episodes_run_with_another_configuration(tmp_p
     (directory / "result.json").write_text(json.dumps(result(True, None, 3.0)))
     config = resolve_config(flags={"planner": "hybrid", "task": "task0", "seed": 0}, registry=get_registry()).model_dump(mode="json")
     del config["task_planner"]["options"]["backtracks"]  # a record from before an option existed
+    default_tau = config["task_planner"]["options"]["tau"]
     config["task_planner"]["options"]["tau"] = 0.3
     (directory / "config.yaml").write_text(yaml.safe_dump(config))
     assert config_conflicts({"a": {"b": 1, "c": 2}}, {"a": {"b": 1, "c": 3, "d": 4}}) == ["a.c: 2 -> 3"]
     check_finished_configs([episode], tmp_path, ["task_planner.options.tau=0.3"])  # the same values: resumable
     with pytest.raises(ConfigError) as error:
         run_grid([episode], tmp_path, [], executor=object())  # refused before any episode would run
-    assert "task_planner.options.tau: 0.3 -> 0.2" in str(error.value) and str(directory) in str(error.value)
+    assert f"task_planner.options.tau: 0.3 -> {default_tau}" in str(error.value) and str(directory) in str(error.value)
     assert "another --out" in error.value.hint

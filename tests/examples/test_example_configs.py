@@ -54,3 +54,6 @@ def test_paper_search_restores_the_published_greedy_step_in_hybrid() -> None:
     # greedy-search's defaults are the published ones
     assert published.model_dump(exclude={"reshoot"}) == LookaheadOptions().model_dump()
     assert HybridOptions().model_dump() != LookaheadOptions().model_dump()
+    assert (published.tau, published.regressions, published.backtrack_to) == (0.2, "allow", "latest")
+    defaults = HybridOptions()  # docs/guide/deviations.md#tau-01-for-pessimistic-values
+    assert (defaults.tau, defaults.regressions, defaults.backtrack_to) == (0.1, "skip", "most_feasible")
