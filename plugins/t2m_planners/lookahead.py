@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 
 from t2m_core.domain.goals import goal_satisfied
-from t2m_core.domain.propositions import Proposition
 from t2m_core.domain.observation import decode_observation
+from t2m_core.domain.propositions import Proposition
 from t2m_core.domain.relations import situation, symbolic_state
 from t2m_core.domain.skills import SkillCall
 from t2m_core.domain.state import GeometricState
