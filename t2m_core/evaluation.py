@@ -3,8 +3,9 @@
 One episode per (planner, task, seed), each in its own run directory ``OUT/<planner>/<task>/seed<N>``.
 The grid is resumable: an episode whose ``result.json`` exists and was not interrupted is kept; any
 other is run again. A kept episode must have been run with the configuration the grid asks for
-(:func:`config_conflicts`), so that one table never mixes two configurations. Episodes are the tasks of an executor (local worker processes or a Ray cluster,
-:mod:`t2m_core.executors`), each writing its own run directory. Base seeds are spaced
+(:func:`config_conflicts`), so that one table never mixes two configurations. Episodes are the
+tasks of an executor (local worker processes or a Ray cluster, :mod:`t2m_core.executors`), each
+writing its own run directory. Base seeds are spaced
 :data:`SEED_SPACING` apart so that no two episodes of a task share an accepted scene (a reset walks
 from its base seed to the first accepted candidate).
 """
@@ -14,7 +15,6 @@ from __future__ import annotations
 import csv
 import functools
 import io
-import json
 from collections import defaultdict
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -22,7 +22,9 @@ from pathlib import Path
 from typing import Any
 
 from t2m_core.atomic_files import write_bytes_atomic, write_json_atomic, write_text_atomic
+from t2m_core.errors import T2MError
 from t2m_core.executors import Executor, LocalExecutor, TaskCounts
+from t2m_core.run_records import read_result
 
 SEED_SPACING = 1000
 """Base seed of seed index s: s × 1000 (resets reject at most a few hundred candidates)."""
@@ -52,13 +54,12 @@ def grid(planners: Sequence[str], tasks: Sequence[str], seeds: Sequence[int]) ->
 
 
 def finished(episode: Episode, out: Path) -> dict[str, Any] | None:
-    """The episode's result if it ran to its end, else ``None``."""
-    path = episode.directory(out) / "result.json"
+    """The episode's result if it ran to its end, else ``None`` (also for a torn ``result.json``)."""
     try:
-        result = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        result = read_result(episode.directory(out))
+    except T2MError:
         return None
-    return None if result.get("interrupted") else result
+    return None if result is None or result.get("interrupted") else result
 
 
 def config_conflicts(recorded: Mapping[str, Any], requested: Mapping[str, Any], prefix: str = "") -> list[str]:

@@ -81,7 +81,6 @@ class Goal:
         return any(all(p in true for p in alternative) for alternative in self.alternatives)
 
 
-
 def parse_goal(text: str, *, extract: bool = False) -> Goal:
     """Parse a goal written as a Python/JSON list of lists of proposition strings.
 
