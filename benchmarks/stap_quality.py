@@ -1,7 +1,7 @@
 """Feasibility planning against the physics: each task's reference skeleton executed closed loop.
 
     python benchmarks/stap_quality.py --json OUT [--planners policy-cem,policy,random-cem] [--tasks all]
-        [--seeds 0-9] [--population N] [--checkpoints DIR] [--workers N]
+        [--seeds 0-9] [--population N] [--checkpoints DIR] [--workers N] [--replan-start policy|planned]
 
 For every planner, task and seed: reset MuJoCo to the task's scene (base seed = index × 1000), plan
 the task's reference skeleton, execute it closed loop (re-planning the remaining skills after every
@@ -29,6 +29,8 @@ def main() -> None:
     parser.add_argument("--sim", default="mujoco")
     parser.add_argument("--checkpoints", default=None, help="skill checkpoints directory (default: the shipped ones)")
     parser.add_argument("--plot", default=None, help="write a reliability plot (PNG) of predicted p_success against success")
+    parser.add_argument("--replan-start", choices=("policy", "planned"), default="policy",
+                        help="where each closed-loop re-plan starts: from scratch (policy) or from the previous plan's remaining actions")
     parser.add_argument("--workers", type=int, default=1,
                         help="episodes run at once in local worker processes (each plan seeds its own generator, so "
                              "the results do not depend on this)")
@@ -43,12 +45,13 @@ def main() -> None:
     seeds = range(int(low), int(high or low) + 1)
     planner_names = args.planners.split(",")
     jobs = [(planner_name, task_id, seed) for planner_name in planner_names for task_id in tasks for seed in seeds]
-    run = functools.partial(_run_episode, sim=args.sim, checkpoints=args.checkpoints, population=args.population)
+    run = functools.partial(_run_episode, sim=args.sim, checkpoints=args.checkpoints, population=args.population,
+                            replan_start=args.replan_start)
     with make_executor("local", workers=args.workers) as pool:
         finished = dict(pool.map(run, jobs))
     if "simulator" in _PROCESS_PARTS:  # one worker: the episodes ran in this process
         _PROCESS_PARTS["simulator"].close()
-    report: dict = {"simulator": args.sim, "checkpoints": args.checkpoints or "shipped", "planners": {}}
+    report: dict = {"simulator": args.sim, "checkpoints": args.checkpoints or "shipped", "replan_start": args.replan_start, "planners": {}}
     for planner_name in planner_names:
         episodes = [finished[job] for job in jobs if job[0] == planner_name]
         per_task = {t: float(np.mean([e["success"] for e in episodes if e["task"] == t])) for t in tasks}
@@ -66,7 +69,7 @@ _PROCESS_PARTS: dict = {}
 """This process's simulator, skill library and planners, made by its first episode and kept for the rest."""
 
 
-def _run_episode(job: tuple[str, str, int], *, sim: str, checkpoints: str | None, population: int | None) -> dict:
+def _run_episode(job: tuple[str, str, int], *, sim: str, checkpoints: str | None, population: int | None, replan_start: str) -> dict:
     """One (planner, task, seed index) episode: reset, plan and execute the reference skeleton closed loop."""
     from t2m_core.closed_loop import execute_closed_loop
     from t2m_core.domain.goals import goal_satisfied_full
@@ -85,7 +88,8 @@ def _run_episode(job: tuple[str, str, int], *, sim: str, checkpoints: str | None
     simulator, task = _PROCESS_PARTS["simulator"], load_task(task_id)
     reset = simulator.reset(task, seed=seed * SEED_SPACING)
     started = time.perf_counter()
-    result = execute_closed_loop(simulator, _PROCESS_PARTS[planner_name], _PROCESS_PARTS["skills"], task.reference_skeleton, reset.state.object_names)
+    result = execute_closed_loop(simulator, _PROCESS_PARTS[planner_name], _PROCESS_PARTS["skills"], task.reference_skeleton, reset.state.object_names,
+                                 replan_start=replan_start)
     elapsed = time.perf_counter() - started
     reached = result.success and bool(goal_satisfied_full(task.goal, simulator.geometric_state(), task.initial_state))
     failure = next((f"{s.call}: {s.result.failure}" for s in result.steps if not s.result.success), None)

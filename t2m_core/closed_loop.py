@@ -73,6 +73,8 @@ def execute_closed_loop(
     *,
     on_step: Callable[[ExecutedStep], None] | None = None,
     closed_loop: bool = True,
+    replan_start: str = "policy",
+    accepted: PlanResult | None = None,
 ) -> ClosedLoopResult:
     """Execute ``skeleton`` in ``simulator`` (already reset), planning with ``planner``.
 
@@ -81,13 +83,24 @@ def execute_closed_loop(
         on_step: called after each executed skill.
         closed_loop: re-plan the remaining skills before each one (default); ``False`` executes the
             first plan's actions open loop.
+        replan_start: where each re-plan starts: ``"policy"``, from scratch (the feasibility
+            planner's own start); ``"planned"``, from the actions planned before it for the same
+            skills (``accepted``'s for the first skill, then the previous plan's remaining ones).
+        accepted: the plan a task planner accepted for ``skeleton`` from this start (or ``None``).
     """
+    if replan_start not in ("policy", "planned"):
+        raise ValueError(f"replan_start must be 'policy' or 'planned', got {replan_start!r}")
     outcome = ClosedLoopResult()
     first_plan: PlanResult | None = None
+    previous: np.ndarray | None = None  # (remaining skills, 4) actions planned before for skeleton[index:]
+    if replan_start == "planned" and accepted is not None and len(accepted.actions) == len(skeleton):
+        previous = np.asarray(accepted.actions)
     for index, call in enumerate(skeleton):
         started = time.perf_counter()
         if closed_loop or first_plan is None:
-            plan = planner.plan(simulator.observation(), list(skeleton[index:]), skills, object_names)
+            start = {"initial_actions": previous} if replan_start == "planned" and previous is not None and len(previous) else {}
+            plan = planner.plan(simulator.observation(), list(skeleton[index:]), skills, object_names, **start)
+            previous = np.asarray(plan.actions)[1:]
             offset = 0
         else:
             plan, offset = first_plan, index

@@ -207,8 +207,16 @@ class FeasibilityPlanner(Protocol):
         skeleton: Sequence[SkillCall],
         skills: Mapping[str, Skill],
         object_names: Sequence[str],
+        *,
+        initial_actions: np.ndarray | None = None,
     ) -> PlanResult:
-        """Plan ``skeleton`` from the ``(8, 12)`` observation whose rows ``1..N`` are ``object_names``."""
+        """Plan ``skeleton`` from the ``(8, 12)`` observation whose rows ``1..N`` are ``object_names``.
+
+        ``initial_actions``: ``(T0, 4)`` normalised actions for the first ``T0 <= len(skeleton)``
+        skills, typically the plan already made for that prefix, where a search may start (PolicyCEM
+        takes them, and the policies' actions after them, as its starting mean). A hint: a planner
+        may ignore it, and callers pass it only when asked to (``LookaheadOptions.prefix_start``).
+        """
         ...
 
 

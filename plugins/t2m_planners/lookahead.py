@@ -77,9 +77,14 @@ class Search:
         if self.context.on_event is not None:
             self.context.on_event({"event": event, **fields})
 
-    def stap(self, sequence: Sequence[SkillCall]) -> PlanResult:
+    def stap(self, sequence: Sequence[SkillCall], prefix_plan: PlanResult | None = None) -> PlanResult:
+        """STAP's plan of ``sequence``; with ``prefix_start="planned"``, started from ``prefix_plan``'s
+        actions (the plan already made for the first steps of ``sequence``)."""
         self.stap_calls += 1
-        return self.context.feasibility.plan(self.context.observation, list(sequence), self.context.skills, self.objects)
+        extra = {}
+        if self.options.prefix_start == "planned" and prefix_plan is not None and len(prefix_plan.actions):
+            extra["initial_actions"] = prefix_plan.actions
+        return self.context.feasibility.plan(self.context.observation, list(sequence), self.context.skills, self.objects, **extra)
 
     def ok(self, plan: PlanResult, steps: int) -> bool:
         """Every masked value of the first ``steps`` steps exceeds τ."""
@@ -146,7 +151,7 @@ class Search:
             if len(continuation) > depth_left:
                 self.emit("shooting_candidate", prefix=[str(c) for c in prefix], sequence=[str(c) for c in full], kept=False, reason="longer than the remaining depth")
                 continue
-            plan = self.stap(full)
+            plan = self.stap(full, prefix_plan)
             reason = "the goal does not hold on any predicted state"
             for steps in range(len(prefix) + 1, len(full) + 1):
                 feasible = self.ok(plan, steps if self.options.feasible_truncation == "through" else steps - 1)
@@ -179,7 +184,7 @@ class Search:
         if not calls:
             self.emit("greedy_step", prefix=[str(c) for c in prefix], candidates=[], reason="no valid next skill was proposed")
             return None
-        plans = [self.stap(prefix + [call]) for call in calls]
+        plans = [self.stap(prefix + [call], prefix_plan) for call in calls]
         scored = self.context.session.score(self.context.goal, prefix, calls, history=history)
         self.llm_calls += 1
         path = self.path_states(prefix_plan, prefix)

@@ -61,6 +61,12 @@ class LookaheadOptions(PlannerOptions):
         "step's next-best candidate, at most this many per episode (0: the dead end fails the search, as the "
         "paper's beam of one)",
     )
+    prefix_start: Literal["policy", "planned"] = Field(
+        "policy",
+        description="where STAP starts a candidate's plan (prefix plus candidate): from the policies' rollout, "
+        "re-planning the prefix from scratch (policy, paper), or from the actions already planned for the "
+        "prefix, the policy's after them (planned), so that a longer plan never starts worse than its prefix",
+    )
     backtrack_to: Literal["latest", "most_feasible"] = Field(
         "latest",
         description="where a dead end resumes: at the latest earlier step's next-best candidate (latest, "

@@ -46,21 +46,40 @@ def _empty_plan(observation: torch.Tensor) -> PlanResult:
     )
 
 
+def _initial_actions(initial_actions: np.ndarray | None, horizon: int) -> torch.Tensor | None:
+    if initial_actions is None:
+        return None
+    tensor = torch.as_tensor(np.asarray(initial_actions, dtype=np.float32))
+    if tensor.ndim != 2 or tensor.shape[1] != 4 or tensor.shape[0] > horizon:
+        raise ValueError(f"initial_actions must be (T0, 4) with T0 <= {horizon} skills, got shape {tuple(tensor.shape)}")
+    return tensor.clamp(-1.0, 1.0)
+
+
 class FeasibilityPlannerBase:
     """What every planner here does around its search: check the observation, prepare the skeleton's
     steps and thresholds, and turn the chosen trajectory into a :class:`PlanResult`."""
 
-    def plan(self, observation: np.ndarray, skeleton: Sequence[SkillCall], skills: Mapping[str, Skill], object_names: Sequence[str]) -> PlanResult:
+    def plan(
+        self,
+        observation: np.ndarray,
+        skeleton: Sequence[SkillCall],
+        skills: Mapping[str, Skill],
+        object_names: Sequence[str],
+        *,
+        initial_actions: np.ndarray | None = None,
+    ) -> PlanResult:
         start = _observation(observation)
         if not skeleton:
             return _empty_plan(start)
+        prefix_actions = _initial_actions(initial_actions, len(skeleton))
         steps = prepare_steps(skeleton, skills, object_names)
         thresholds = thresholds_of(steps)
-        rollouts, index = self.search(start, steps, thresholds)
+        rollouts, index = self.search(start, steps, thresholds, prefix_actions)
         return plan_result(rollouts, index, thresholds)
 
-    def search(self, start: torch.Tensor, steps: list[Step], thresholds: torch.Tensor) -> tuple[Rollouts, int]:
-        """The rollouts holding the chosen trajectory, and its index."""
+    def search(self, start: torch.Tensor, steps: list[Step], thresholds: torch.Tensor, prefix_actions: torch.Tensor | None) -> tuple[Rollouts, int]:
+        """The rollouts holding the chosen trajectory, and its index. ``prefix_actions``: ``(T0, 4)``
+        actions for the first steps, where the search may start (the protocol's ``initial_actions``)."""
         raise NotImplementedError
 
 
@@ -70,24 +89,26 @@ class PolicyRollout(FeasibilityPlannerBase):
     def __init__(self, options: PolicyOptions | None = None) -> None:
         self.options = options or PolicyOptions()
 
-    def search(self, start: torch.Tensor, steps: list[Step], thresholds: torch.Tensor) -> tuple[Rollouts, int]:
-        return rollout(steps, start), 0
+    def search(self, start: torch.Tensor, steps: list[Step], thresholds: torch.Tensor, prefix_actions: torch.Tensor | None) -> tuple[Rollouts, int]:
+        return rollout(steps, start), 0  # the policy alone: a starting point is not its to take
 
 
 class CrossEntropyMethod(FeasibilityPlannerBase):
     """``policy-cem`` (``initial="policy"``, the default feasibility planner) and ``random-cem``
-    (``initial="random"``): the cross-entropy method over the whole skeleton's actions."""
+    (``initial="random"``): the cross-entropy method over the whole skeleton's actions. Given
+    ``prefix_actions``, PolicyCEM's starting mean takes them at the first steps and the policies'
+    actions after them."""
 
     def __init__(self, options: CEMOptions | None = None, initial: str = "policy") -> None:
         self.options = options or CEMOptions()
         self.initial = initial
 
-    def search(self, start: torch.Tensor, steps: list[Step], thresholds: torch.Tensor) -> tuple[Rollouts, int]:
+    def search(self, start: torch.Tensor, steps: list[Step], thresholds: torch.Tensor, prefix_actions: torch.Tensor | None) -> tuple[Rollouts, int]:
         options = self.options
         generator = torch.Generator().manual_seed(options.seed)
         horizon = len(steps)
         if self.initial == "policy":
-            mean = rollout(steps, start).actions[0]
+            mean = rollout(steps, start, prefix_actions=prefix_actions).actions[0]
         else:
             mean = torch.rand((horizon, 4), generator=generator) * 2 - 1
         sigma = torch.full((horizon, 4), options.sigma)
@@ -123,8 +144,8 @@ class Shooting(FeasibilityPlannerBase):
         self.options = options or ShootingOptions()
         self.initial = initial
 
-    def search(self, start: torch.Tensor, steps: list[Step], thresholds: torch.Tensor) -> tuple[Rollouts, int]:
-        options = self.options
+    def search(self, start: torch.Tensor, steps: list[Step], thresholds: torch.Tensor, prefix_actions: torch.Tensor | None) -> tuple[Rollouts, int]:
+        options = self.options  # one pass of fresh samples: a starting point is not used
         generator = torch.Generator().manual_seed(options.seed)
         total = options.samples(len(steps))
         best: tuple[float, Rollouts, int] | None = None

@@ -112,6 +112,7 @@ def rollout(
     count: int = 1,
     policy_noise: float = 0.0,
     generator: torch.Generator | None = None,
+    prefix_actions: torch.Tensor | None = None,
 ) -> Rollouts:
     """Roll out ``count`` trajectories from one ``(8, 12)`` observation.
 
@@ -121,6 +122,8 @@ def rollout(
         actions: ``(N, T, 4)`` actions to evaluate; ``None``: the policy acts at every predicted
             state (plus N(0, policy_noise²) noise, clipped, when ``policy_noise > 0``).
         count: trajectories when ``actions`` is ``None``.
+        prefix_actions: ``(T0, 4)``, ``T0 <= T``: when ``actions`` is ``None``, every trajectory takes
+            these actions at its first ``T0`` steps (no noise) and the policy's after them.
     """
     n = actions.shape[0] if actions is not None else count
     current = observation.expand(n, -1, -1).clone()
@@ -129,6 +132,8 @@ def rollout(
         encoded = encode(current, step)
         if actions is not None:
             action = actions[:, t]
+        elif prefix_actions is not None and t < prefix_actions.shape[0]:
+            action = prefix_actions[t].expand(n, -1)
         else:
             action = _as_tensor(step.skill.policy(encoded))
             if policy_noise > 0:

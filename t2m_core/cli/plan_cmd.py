@@ -56,7 +56,7 @@ def plan(
         report["p_success"] = first.p_success
         _print_plan(console, calls, first)
         if execute:
-            report["execution"] = _execute(console, simulator, planner, skills, calls, objects, out, config)
+            report["execution"] = _execute(console, simulator, planner, skills, calls, objects, out, config, first)
     finally:
         simulator.close()
     if out is not None:
@@ -95,7 +95,7 @@ def _print_plan(console, calls, plan) -> None:
     console.print(table)
 
 
-def _execute(console, simulator, planner, skills, calls, objects, out: Path | None, config) -> dict[str, Any]:
+def _execute(console, simulator, planner, skills, calls, objects, out: Path | None, config, first) -> dict[str, Any]:
     import contextlib
 
     from t2m_core.closed_loop import execute_closed_loop
@@ -118,7 +118,8 @@ def _execute(console, simulator, planner, skills, calls, objects, out: Path | No
             video.add(simulator.render())
             simulator.stream_frames(video.add)
         try:
-            result = execute_closed_loop(simulator, planner, skills, calls, objects, on_step=show, closed_loop=config.run.closed_loop)
+            result = execute_closed_loop(simulator, planner, skills, calls, objects, on_step=show, closed_loop=config.run.closed_loop,
+                                         replan_start=config.run.replan_start, accepted=first)
         finally:
             if video is not None:
                 simulator.stream_frames(None)

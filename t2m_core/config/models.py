@@ -46,6 +46,12 @@ class RunSettings(BaseModel):
         description="Re-optimise the remaining skills' parameters from the observed state after every "
         "executed skill (docs/guide/feasibility.md#closed-loop-execution); false executes the open-loop plan.",
     )
+    replan_start: Literal["policy", "planned"] = Field(
+        "policy",
+        description="Where each closed-loop re-plan starts: from scratch (policy, paper) or from the actions "
+        "planned before for the same skills, the task planner's accepted plan first (planned; "
+        "docs/guide/feasibility.md#closed-loop-execution).",
+    )
 
 
 class PromptSettings(BaseModel):

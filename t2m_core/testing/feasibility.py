@@ -28,8 +28,9 @@ def check_feasibility_planner(
 
     Checks: shapes and dtypes of the plan result; actions in [−1, 1]; the first state is the given
     observation; values in [0, 1]; ``p_success`` equals the product of the OOD-masked values; the
-    same call twice gives the same plan; with every skill's OOD threshold at 0 every step is flagged
-    and ``p_success`` is 0.
+    same call twice gives the same plan; ``initial_actions`` (the plan's own first actions) is
+    accepted and gives a plan of the same shapes; with every skill's OOD threshold at 0 every step is
+    flagged and ``p_success`` is 0.
 
     Raises:
         AssertionError: naming the first violation.
@@ -48,6 +49,8 @@ def check_feasibility_planner(
     assert abs(result.p_success - expected) <= 1e-5, f"p_success {result.p_success} != product of masked values {expected}"
     again = planner.plan(observation, list(skeleton), skills, object_names)
     assert np.array_equal(np.asarray(again.actions), actions) and again.p_success == result.p_success, "plan is not deterministic"
+    started = planner.plan(observation, list(skeleton), skills, object_names, initial_actions=actions[: max(horizon - 1, 1)])
+    assert np.asarray(started.actions).shape == (horizon, 4), "a plan given initial_actions must still cover the whole skeleton"
     flagged_skills = {name: _AlwaysOutOfDistribution(skill) for name, skill in skills.items()}
     flagged = planner.plan(observation, list(skeleton), flagged_skills, object_names)
     assert np.all(np.asarray(flagged.ood)), "a step whose variance reaches the threshold must be flagged OOD"

@@ -58,9 +58,12 @@ class SymbolicFeasibility:
         self.ood = set(ood)
         self.drift = drift
         self.calls: list[list[str]] = []
+        self.starts: list[np.ndarray | None] = []
+        """The ``initial_actions`` of every call (``None`` when none were given)."""
 
-    def plan(self, observation, skeleton: Sequence[SkillCall], skills, object_names) -> PlanResult:
+    def plan(self, observation, skeleton: Sequence[SkillCall], skills, object_names, *, initial_actions=None) -> PlanResult:
         self.calls.append([str(c) for c in skeleton])
+        self.starts.append(None if initial_actions is None else np.asarray(initial_actions).copy())
         rows = {name: 1 + i for i, name in enumerate(object_names)}
         states = [np.asarray(observation, np.float32).copy()]
         held, values = None, []
@@ -83,4 +86,5 @@ class SymbolicFeasibility:
             states.append(state)
         values = np.array(values, np.float32)
         ood = np.array([str(c) in self.ood for c in skeleton], bool)
-        return PlanResult(np.zeros((len(skeleton), 4), np.float32), np.stack(states), values, ood, float(np.prod(values * ~ood)))
+        actions = np.tile(np.linspace(-0.5, 0.5, len(skeleton), dtype=np.float32)[:, None], (1, 4))  # step k's, for tracing
+        return PlanResult(actions, np.stack(states), values, ood, float(np.prod(values * ~ood)))

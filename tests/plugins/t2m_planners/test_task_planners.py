@@ -198,3 +198,18 @@ def test_skipping_regressions_never_takes_a_box_off_the_rack_the_goal_wants_it_o
     # up from the table the goal wants it on (task1 moves boxes out of the way "onto the table")
     _, steps = search("[['on(red_box, rack)', 'on(blue_box, table)']]", "skip")
     assert steps[0] == {"pick(red_box)": False, "pick(blue_box)": False}
+
+
+@pytest.mark.parametrize("prefix_start", ["policy", "planned"])
+def test_a_candidate_plan_starts_from_the_planned_prefix_only_when_asked(prefix_start: str) -> None:
+    model = RuleModel(next_skills=["['pick(red_box)']", "['place(red_box, rack)']"])
+    feasibility = SymbolicFeasibility()
+    options = LookaheadOptions(max_depth=3, prefix_start=prefix_start)
+    result = LookaheadPlanner(options, "greedy-search").plan(context(model, feasibility))
+    assert [str(c) for c in result.skeleton] == ["pick(red_box)", "place(red_box, rack)"]
+    assert feasibility.calls == [["pick(red_box)"], ["pick(red_box)", "place(red_box, rack)"]]
+    assert feasibility.starts[0] is None  # nothing planned yet
+    if prefix_start == "policy":
+        assert feasibility.starts[1] is None
+    else:  # the one-skill plan's actions: the double's plan of [pick(red_box)] acts -0.5
+        np.testing.assert_array_equal(feasibility.starts[1], np.full((1, 4), -0.5, np.float32))

@@ -88,3 +88,31 @@ def test_the_population_can_scale_with_the_horizon() -> None:
 def test_an_unknown_skill_is_named_with_the_library_contents() -> None:
     with pytest.raises(KeyError, match="has no 'push' skill; it has pick"):
         PolicyRollout().plan(OBSERVATION, [SkillCall("push", ("red_box", "hook", "rack"))], {"pick": ToySkill("pick")}, (*OBJECTS, "hook"))
+
+
+def test_policy_cem_starts_from_given_prefix_actions_and_the_policy_after_them() -> None:
+    # one sample, one iteration: the plan is the starting mean itself
+    skills = {"pick": ToySkill("pick", target=(0.6, -0.4, 0.2, 0.0)), "place": ToySkill("place", policy_action=(0.1, 0.2, 0.3, 0.4), chained=True)}
+    single = CEMOptions(population=1, iterations=1, elites=1)
+    given = np.array([[0.6, -0.4, 0.2, 0.0]], np.float32)
+    started = CrossEntropyMethod(single).plan(OBSERVATION, [PICK, PLACE], skills, OBJECTS, initial_actions=given)
+    np.testing.assert_allclose(started.actions, [[0.6, -0.4, 0.2, 0.0], [0.1, 0.2, 0.3, 0.4]], atol=1e-6)
+    assert started.values[0] > 0.95
+    unstarted = CrossEntropyMethod(single).plan(OBSERVATION, [PICK, PLACE], skills, OBJECTS)
+    np.testing.assert_allclose(unstarted.actions[0], [0.0, 0.0, 0.0, 0.0], atol=1e-6)  # the policy's
+    assert unstarted.values[0] < 0.05
+
+
+def test_a_prefix_start_never_ends_worse_than_the_start_itself() -> None:
+    skills = {"pick": ToySkill("pick", target=(0.6, -0.4, 0.2, 0.0)), "place": ToySkill("place", chained=True)}
+    given = np.array([[0.6, -0.4, 0.2, 0.0]], np.float32)
+    start = CrossEntropyMethod(CEMOptions(population=1, iterations=1, elites=1)).plan(OBSERVATION, [PICK, PLACE], skills, OBJECTS, initial_actions=given)
+    searched = CrossEntropyMethod(CEMOptions(population=50, seed=3)).plan(OBSERVATION, [PICK, PLACE], skills, OBJECTS, initial_actions=given)
+    assert searched.p_success >= start.p_success
+
+
+@pytest.mark.parametrize("shape", [(3, 4), (1, 3), (4,)])
+def test_prefix_actions_of_the_wrong_shape_are_refused(shape: tuple[int, ...]) -> None:
+    skills = {"pick": ToySkill("pick"), "place": ToySkill("place", chained=True)}
+    with pytest.raises(ValueError, match=r"initial_actions must be \(T0, 4\) with T0 <= 2"):
+        CrossEntropyMethod(CEMOptions(population=10)).plan(OBSERVATION, [PICK, PLACE], skills, OBJECTS, initial_actions=np.zeros(shape))
