@@ -215,7 +215,8 @@ class FeasibilityPlanner(Protocol):
         ``initial_actions``: ``(T0, 4)`` normalised actions for the first ``T0 <= len(skeleton)``
         skills, typically the plan already made for that prefix, where a search may start (PolicyCEM
         takes them, and the policies' actions after them, as its starting mean). A hint: a planner
-        may ignore it, and callers pass it only when asked to (``LookaheadOptions.prefix_start``).
+        may ignore it, and callers pass it only when asked to (``LookaheadOptions.prefix_start``,
+        ``run.replan_start``).
         """
         ...
 
