@@ -92,13 +92,11 @@ def execute_closed_loop(
         raise ValueError(f"replan_start must be 'policy' or 'planned', got {replan_start!r}")
     outcome = ClosedLoopResult()
     first_plan: PlanResult | None = None
-    previous: np.ndarray | None = None  # (remaining skills, 4) actions planned before for skeleton[index:]
-    if replan_start == "planned" and accepted is not None and len(accepted.actions) == len(skeleton):
-        previous = np.asarray(accepted.actions)
+    previous = accepted.actions if accepted is not None else None  # (remaining skills, 4) planned before for skeleton[index:]
     for index, call in enumerate(skeleton):
         started = time.perf_counter()
         if closed_loop or first_plan is None:
-            start = {"initial_actions": previous} if replan_start == "planned" and previous is not None and len(previous) else {}
+            start = {"initial_actions": previous} if replan_start == "planned" and previous is not None else {}
             plan = planner.plan(simulator.observation(), list(skeleton[index:]), skills, object_names, **start)
             previous = np.asarray(plan.actions)[1:]
             offset = 0

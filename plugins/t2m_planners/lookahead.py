@@ -70,6 +70,8 @@ class Search:
         self.objects = tuple(context.object_names)
         self.llm_calls = 0
         self.stap_calls = 0
+        self.held_at_start = self.achieved(decode_observation(context.observation, self.objects))
+        """The goal propositions that already hold in the start state (never counted as achieved)."""
 
     # --- helpers of the algorithms ----------------------------------------------------------------
 
@@ -82,7 +84,7 @@ class Search:
         actions (the plan already made for the first steps of ``sequence``)."""
         self.stap_calls += 1
         extra = {}
-        if self.options.prefix_start == "planned" and prefix_plan is not None and len(prefix_plan.actions):
+        if self.options.prefix_start == "planned" and prefix_plan is not None:
             extra["initial_actions"] = prefix_plan.actions
         return self.context.feasibility.plan(self.context.observation, list(sequence), self.context.skills, self.objects, **extra)
 
@@ -189,7 +191,7 @@ class Search:
         self.llm_calls += 1
         path = self.path_states(prefix_plan, prefix)
         visited = {situation(state, self.objects) for state in path}
-        achieved = self.achieved(path[-1]) - self.achieved(path[0])
+        achieved = self.achieved(path[-1]) - self.held_at_start
         candidates = []
         for call, plan, logprob, usefulness in zip(calls, plans, scored.logprobs, scored.usefulness, strict=True):
             masked = masked_values(plan)
