@@ -48,6 +48,25 @@ class Episode:
         return out / self.planner / self.task / f"seed{self.seed_index}"
 
 
+def parse_seed_indices(text: str) -> list[int]:
+    """Seed indices from ``"0-9"`` (a range, both ends included) or ``"0,3,5"`` (a list).
+
+    Raises:
+        T2MError: unreadable text, no seed, or a negative one.
+    """
+    try:
+        if "-" in text:
+            low, high = (int(x) for x in text.split("-"))
+            values = list(range(low, high + 1))
+        else:
+            values = [int(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise T2MError(f"cannot read --seeds {text!r}", "write a range like 0-9 or a list like 0,3,5") from None
+    if not values or min(values) < 0:
+        raise T2MError(f"--seeds {text!r} names no seed or a negative one", "seed indices start at 0")
+    return values
+
+
 def grid(planners: Sequence[str], tasks: Sequence[str], seeds: Sequence[int]) -> list[Episode]:
     """Every episode, planner-major."""
     return [Episode(p, t, s) for p in planners for t in tasks for s in seeds]
@@ -203,15 +222,35 @@ def summarise(results: dict[Episode, dict[str, Any]]) -> list[dict[str, Any]]:
     return rows
 
 
-def write_tables(rows: list[dict[str, Any]], out: Path, executor: dict[str, Any] | None = None) -> None:
-    """``results.json``, ``results.csv``, ``results.md`` and ``success.png`` in ``out``;
-    ``results.json`` also records ``executor``, the executor of the run that wrote the tables."""
+EPISODE_COLUMNS = ("planner", "task", "seed_index", "success", "failure_type", "failure", "plan", "llm_calls", "stap_calls",
+                   "subgoal_completion", "seconds", "llm_seconds", "stap_seconds", "simulation_seconds")
+
+
+def episode_rows(results: dict[Episode, dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per episode (:data:`EPISODE_COLUMNS`), in grid order: what the summary rows are made of,
+    kept so that two evaluations can be compared episode by episode without their run directories."""
+    rows = []
+    for episode, result in sorted(results.items(), key=lambda kv: (kv[0].planner, kv[0].task, kv[0].seed_index)):
+        timings = result["timings"]
+        rows.append({
+            "planner": episode.planner, "task": episode.task, "seed_index": episode.seed_index, "success": bool(result["success"]),
+            "failure_type": result["failure_type"], "failure": result.get("failure"), "plan": "; ".join(result.get("plan") or []),
+            "llm_calls": result["llm_calls"], "stap_calls": result.get("stap_calls"), "subgoal_completion": result["subgoal_completion"],
+            "seconds": round(timings["total"], 1), "llm_seconds": round(timings["language_model"], 1),
+            "stap_seconds": round(timings["feasibility"], 1), "simulation_seconds": round(timings["simulation"], 1),
+        })
+    return rows
+
+
+def write_tables(rows: list[dict[str, Any]], out: Path, executor: dict[str, Any] | None = None,
+                 episodes: list[dict[str, Any]] | None = None) -> None:
+    """``results.json``, ``results.csv``, ``results.md`` and ``success.png`` in ``out``, and with
+    ``episodes`` (:func:`episode_rows`) ``episodes.csv``; ``results.json`` also records ``executor``,
+    the executor of the run that wrote the tables."""
     write_json_atomic(out / "results.json", {"rows": rows, "paper": PAPER_SUCCESS, "executor": executor})
-    buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=COLUMNS)
-    writer.writeheader()
-    writer.writerows(rows)
-    write_text_atomic(out / "results.csv", buffer.getvalue())
+    write_text_atomic(out / "results.csv", _csv(rows, COLUMNS))
+    if episodes is not None:
+        write_text_atomic(out / "episodes.csv", _csv(episodes, EPISODE_COLUMNS))
     lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
     lines += ["| " + " | ".join(str(row[c]) for c in COLUMNS) + " |" for row in rows]
     lines.append("")
@@ -219,6 +258,14 @@ def write_tables(rows: list[dict[str, Any]], out: Path, executor: dict[str, Any]
                  f"{PAPER_SUCCESS['best prior language planner']:.0%}.")
     write_text_atomic(out / "results.md", "\n".join(lines) + "\n")
     _plot(rows, out / "success.png")
+
+
+def _csv(rows: list[dict[str, Any]], columns: Sequence[str]) -> str:
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=columns)
+    writer.writeheader()
+    writer.writerows(rows)
+    return buffer.getvalue()
 
 
 def _plot(rows: list[dict[str, Any]], path: Path) -> None:

@@ -30,7 +30,7 @@ def evaluate(
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from t2m_core.evaluation import finished, grid, run_grid, summarise, write_tables
+    from t2m_core.evaluation import episode_rows, finished, grid, parse_seed_indices, run_grid, summarise, write_tables
     from t2m_core.executors import make_executor
     from t2m_core.registry import get_registry
     from t2m_core.tasks import task_ids
@@ -41,7 +41,7 @@ def evaluate(
     unknown = [t for t in task_list if t not in task_ids()]
     if unknown:
         raise T2MError(f"unknown task(s) {', '.join(unknown)}", f"use task ids from `t2m tasks`: {', '.join(task_ids())}")
-    episodes = grid(planner_names, task_list, _seed_indices(seeds))
+    episodes = grid(planner_names, task_list, parse_seed_indices(seeds))
     console = Console(stderr=True)
     ensure_writable_directory(out)
     columns = (TextColumn("[bold]episodes[/]"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[tasks]}"), TimeElapsedColumn())
@@ -63,24 +63,10 @@ def evaluate(
         results = run_grid(episodes, out, overrides or [], executor=pool, on_result=show, on_status=status)
         described = pool.describe()
     rows = summarise(results)
-    write_tables(rows, out, described)
+    write_tables(rows, out, described, episode_rows(results))
     console.print((out / "results.md").read_text(), highlight=False)
     if as_json:
         typer.echo(json.dumps(rows, indent=2))
-
-
-def _seed_indices(text: str) -> list[int]:
-    try:
-        if "-" in text:
-            low, high = (int(x) for x in text.split("-"))
-            values = list(range(low, high + 1))
-        else:
-            values = [int(x) for x in text.split(",") if x.strip()]
-    except ValueError:
-        raise T2MError(f"cannot read --seeds {text!r}", "write a range like 0-9 or a list like 0,3,5") from None
-    if not values or min(values) < 0:
-        raise T2MError(f"--seeds {text!r} names no seed or a negative one", "seed indices start at 0")
-    return values
 
 
 def register(app: typer.Typer) -> None:

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import json
 
-from t2m_core.evaluation import SEED_SPACING, Episode, finished, grid, summarise, write_tables
+import pytest
+
+from t2m_core.errors import T2MError
+from t2m_core.evaluation import SEED_SPACING, Episode, episode_rows, finished, grid, parse_seed_indices, summarise, write_tables
 
 
 def result(success: bool, failure_type: str | None, seconds: float, interrupted: bool = False) -> dict:
@@ -40,14 +43,16 @@ def test_the_table_counts_success_and_failure_types_per_task_and_overall(tmp_pat
     overall = rows[("hybrid", "all")]
     assert (overall["episodes"], overall["success"], overall["execution_failures"]) == (4, 0.5, 1)
     assert overall["seconds_median"] == 25.0 and overall["subgoal_completion"] == 0.75
-    write_tables(list(rows.values()), tmp_path)
+    write_tables(list(rows.values()), tmp_path, episodes=episode_rows(results))
     assert "| hybrid | all | 4 | 0.5 |" in (tmp_path / "results.md").read_text()
+    episodes = (tmp_path / "episodes.csv").read_text().splitlines()
+    assert episodes[0].startswith("planner,task,seed_index,success,failure_type") and len(episodes) == 5
+    assert episodes[2].startswith("hybrid,task0,1,False,planning_failure") and episodes[3].startswith("hybrid,task1,0,False,execution_failure")
     assert (tmp_path / "success.png").read_bytes()[:4] == b"\x89PNG"
     assert (tmp_path / "results.csv").read_text().splitlines()[0].startswith("planner,task,episodes,success")
 
 
 def test_resuming_refuses_finished_episodes_run_with_another_configuration(tmp_path) -> None:
-    import pytest
     import yaml
 
     from t2m_core.config.resolve import resolve_config
@@ -70,3 +75,10 @@ def test_resuming_refuses_finished_episodes_run_with_another_configuration(tmp_p
         run_grid([episode], tmp_path, [], executor=object())  # refused before any episode would run
     assert f"task_planner.options.tau: 0.3 -> {default_tau}" in str(error.value) and str(directory) in str(error.value)
     assert "another --out" in error.value.hint
+
+
+def test_seed_indices_are_a_range_or_a_list_and_never_negative() -> None:
+    assert parse_seed_indices("0-3") == [0, 1, 2, 3] and parse_seed_indices("5") == [5] and parse_seed_indices("2,7") == [2, 7]
+    for text in ("a-b", "3-1", "-2", ""):
+        with pytest.raises(T2MError):
+            parse_seed_indices(text)
