@@ -10,7 +10,8 @@ questions, in order (the replay backend refuses any other), and it is compared w
 - the plan tree: every record of ``plan_tree.jsonl`` (goal, shooting candidates, greedy steps with
   their scores and STAP values, backtracks, the plan, each executed step with its action, values
   and outcome), less the wall-clock fields (``*_seconds``);
-- the result: plan, success, failure type and reason, executed skills, LLM and STAP calls.
+- the result: plan, success, failure type and reason, predicted goal, LLM and STAP calls, subgoal
+  completion.
 
 An episode matches only when all of it is equal. Prints one line per episode and a summary, and
 writes them as JSON with the replays' wall time against the recordings'.
