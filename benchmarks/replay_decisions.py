@@ -51,6 +51,11 @@ def first_difference(recorded: list[dict[str, Any]], replayed: list[dict[str, An
     return None
 
 
+def seed_index(directory: Path) -> int:
+    """The seed index of an evaluation's run directory ``<planner>/<task>/seed<N>``."""
+    return int(directory.name.removeprefix("seed"))
+
+
 def replay_config(directory: Path, work: Path):
     """The episode's recorded configuration with the language model replaced by its transcript."""
     from t2m_core.config.resolve import resolve_config
@@ -82,7 +87,7 @@ def replay(directory: Path, work: Path) -> dict[str, Any]:
     tree = first_difference(read_plan_tree(directory), read_plan_tree(work / "run")) if error is None else error
     results = [k for k in RESULT_KEYS if recorded.get(k) != result.get(k)] if error is None else list(RESULT_KEYS)
     return {
-        "task": recorded["task"], "seed_index": int(directory.name.removeprefix("seed")), "planner": recorded["planner"],
+        "task": recorded["task"], "seed_index": seed_index(directory), "planner": recorded["planner"],
         "success": recorded["success"], "matches": tree is None and not results, "plan_tree_difference": tree,
         "result_differences": results, "recorded_seconds": recorded["timings"]["total"], "replay_seconds": round(seconds, 2),
     }
@@ -104,14 +109,14 @@ def main() -> None:
     tasks = None if args.tasks is None else set(args.tasks.split(","))
     seeds = None if args.seeds is None else set(parse_seed_indices(args.seeds))
     episodes = [(d, r) for d, r in episode_results(args.evaluation)
-                if (tasks is None or r["task"] in tasks) and (seeds is None or int(d.name.removeprefix("seed")) in seeds)]
+                if (tasks is None or r["task"] in tasks) and (seeds is None or seed_index(d) in seeds)]
     if not episodes:
         raise SystemExit(f"no finished episodes in {args.evaluation} match --tasks/--seeds")
     rows = []
     with tempfile.TemporaryDirectory() as scratch:
         work = args.work or Path(scratch)
         for directory, _ in episodes:
-            row = replay(directory, work / directory.parent.parent.name / directory.parent.name / directory.name)
+            row = replay(directory, work / directory.relative_to(args.evaluation))
             rows.append(row)
             verdict = "same decisions" if row["matches"] else f"DIFFERS: {row['plan_tree_difference'] or row['result_differences']}"
             print(f"{row['planner']} {row['task']} seed {row['seed_index']}: {verdict} "
