@@ -57,7 +57,8 @@ def situation(state: GeometricState, object_names: Sequence[str] | None = None) 
 
     The relations alone cannot tell a pulled box from one left where it was, or a box moved out of
     the rack's way from one standing in front of it; the zones and ``infront`` can. Where the hook
-    lies is left out: putting it down somewhere else achieves nothing by itself.
+    lies is left out, its ``on`` and ``under`` relations too (only ``inhand(hook)`` stays): putting it
+    down somewhere else achieves nothing by itself.
 
     Args:
         state: the geometric state.
@@ -65,7 +66,8 @@ def situation(state: GeometricState, object_names: Sequence[str] | None = None) 
     """
     names = [n for n in (object_names if object_names is not None else state.object_names) if n in state.objects]
     scene = Scene(state)
-    facts = {str(p) for p in symbolic_state(state, names)}
+    tools = {n for n in names if scene.geometry(n).spec.kind is ObjectKind.HOOK}
+    facts = {str(p) for p in symbolic_state(state, names) if p.predicate == "inhand" or not tools & set(p.args)}
     racks = [n for n in names if scene.geometry(n).spec.kind is ObjectKind.RACK]
     for name in names:
         if scene.geometry(name).spec.kind is not ObjectKind.BOX or state.held == name:

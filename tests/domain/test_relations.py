@@ -74,4 +74,7 @@ def test_a_situation_tells_a_pulled_box_and_a_cleared_rack_front_apart_but_not_w
     assert "infront(blue_box, rack)" in situation(beside) and "infront(blue_box, rack)" not in situation(near)
     assert len({situation(far), situation(near), situation(beside)}) == 3
     assert situation(at((0.50, -0.25), hook_xy=(0.55, 0.30))) == situation(near)  # the hook moved: same situation
-    assert set(relation_strings(near)) <= situation(near)
+    assert set(relation_strings(near)) - situation(near) == {"on(hook, table)"}
+    below_the_rack = at((0.50, -0.25), hook_xy=(0.55, -0.25))  # the hook's head reaches under the rack
+    assert "under(hook, rack)" in relation_strings(below_the_rack)
+    assert situation(below_the_rack) == situation(near)  # its relations are where it lies, too
