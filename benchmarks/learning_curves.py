@@ -2,7 +2,7 @@
 
     python benchmarks/learning_curves.py --skill pick --sizes 1250,2500,5000,10000,20000
         --data datasets/tableenv --work /tmp/curves --json OUT [--models q,dynamics] [--steps 20000]
-        [--plot PNG]
+        [--plot PNG] [--validation-size N] [--measure-only]
     python benchmarks/learning_curves.py --combine A.json,B.json --plot PNG   (one plot of several skills)
 
 Trains the models on the first N training transitions (``t2m train --train-size N``: exactly what
@@ -13,6 +13,10 @@ there with its ``.training/`` states is reused), and
 measures each on the full validation split: Q precision / recall / accuracy / loss of the
 pessimistic prediction, the dynamics' median position error of the moved object (mm). A curve that
 still rises at its largest size says more data would help. Prints a table and writes JSON.
+
+``--validation-size N`` measures on the first N validation transitions only (chunks are
+deterministic, so a curve measured on a smaller split stays comparable); ``--measure-only`` measures
+the checkpoints already in ``WORK/<skill>-<N>/`` (trained elsewhere, say) without training.
 """
 
 from __future__ import annotations
@@ -33,6 +37,8 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=None, help="optimiser steps per model (default: the library's)")
     parser.add_argument("--json", dest="json_out", type=Path)
     parser.add_argument("--plot", type=Path, default=None)
+    parser.add_argument("--validation-size", type=int, default=None, help="measure on the first N validation transitions")
+    parser.add_argument("--measure-only", action="store_true", help="measure the checkpoints in WORK without training")
     parser.add_argument("--combine", help="comma-separated JSON files written by this script: plot them together (no training)")
     args = parser.parse_args()
     if args.combine:
@@ -57,17 +63,25 @@ def main() -> None:
     if unknown:
         parser.error(f"unknown models {sorted(unknown)}: learning curves measure q and dynamics")
     transitions = load_split(args.data / args.skill / "validation")
+    if args.validation_size is not None:
+        if not 0 < args.validation_size <= len(transitions):
+            parser.error(f"--validation-size must be in 1..{len(transitions)} (the validation split's size)")
+        transitions = transitions.take(slice(0, args.validation_size))
     validation = SkillTensors.from_transitions(transitions)
     keep = transitions.success
-    available = json.loads((args.data / args.skill / "train" / "manifest.json").read_text())["count"]
+    available = None if args.measure_only else json.loads((args.data / args.skill / "train" / "manifest.json").read_text())["count"]
     points = []
     for size in (int(s) for s in args.sizes.split(",")):
         checkpoint = args.work / f"{args.skill}-{size}"
         # the whole split is what `t2m train` uses by default: its checkpoint serves as this point
-        overrides = {**({"train_size": size} if size < available else {}), **({"steps": args.steps} if args.steps else {})}
+        overrides = {**({"train_size": size} if available and size < available else {}), **({"steps": args.steps} if args.steps else {})}
         started = time.perf_counter()
-        results = train_skill(args.skill, models, args.data, checkpoint, overrides)
-        point: dict = {"train_size": size, "train_seconds": round(time.perf_counter() - started, 1)}
+        if args.measure_only:
+            results = _recorded_results(checkpoint, models)
+            point: dict = {"train_size": size, "train_seconds": None}
+        else:
+            results = train_skill(args.skill, models, args.data, checkpoint, overrides)
+            point = {"train_size": size, "train_seconds": round(time.perf_counter() - started, 1)}
         if "q" in models:
             point["q"] = q_metrics(load_q(checkpoint).eval(), validation)
             point["q"]["best_step"] = results["q"]["best_step"]
@@ -86,6 +100,18 @@ def main() -> None:
         plot_curves(args.plot, [report])
 
 
+def _recorded_results(checkpoint: Path, models: tuple[str, ...]) -> dict:
+    """The training results a finished checkpoint's ``config.json`` records, per model."""
+    config_path = checkpoint / "config.json"
+    if not config_path.exists():
+        raise SystemExit(f"--measure-only: no checkpoint in {checkpoint} (train it first, or copy one there)")
+    recorded = json.loads(config_path.read_text())["models"]
+    missing = [model for model in models if model not in recorded]
+    if missing:
+        raise SystemExit(f"--measure-only: {config_path} has no {', '.join(missing)} model")
+    return {model: recorded[model]["result"] for model in models}
+
+
 def _print_table(report: dict) -> None:
     from rich.console import Console
     from rich.table import Table
@@ -100,7 +126,7 @@ def _print_table(report: dict) -> None:
             *(f"{100 * q[k]:.1f} %" if k in q else "-" for k in ("precision", "recall", "accuracy")),
             f"{q['loss']:.3f}" if "loss" in q else "-",
             f"{dynamics['moved_mm_median']:.1f}" if "moved_mm_median" in dynamics else "-",
-            f"{point['train_seconds']:.0f}",
+            f"{point['train_seconds']:.0f}" if point["train_seconds"] is not None else "-",
         )
     Console().print(table)
 
@@ -129,8 +155,15 @@ def plot_curves(path: Path, reports: list[dict]) -> None:
     if with_dynamics:
         axes[2].axhline(10, color="grey", linewidth=0.8, linestyle=":", label="floor 10 mm")
         labels.append("moved object, median error (mm)")
+    ticks: list[int] = []
+    for size in sorted({p["train_size"] for r in reports for p in r["points"]}, reverse=True):
+        if not ticks or ticks[-1] / size >= 1.3:  # labels of sizes closer than that would overlap
+            ticks.append(size)
+    ticks.reverse()
     for axis, label in zip(axes, labels):
         axis.set_xscale("log")
+        axis.set_xticks(ticks, [f"{size / 1000:g}k" for size in ticks])
+        axis.minorticks_off()
         axis.set_xlabel("training transitions")
         axis.set_ylabel(label)
         axis.legend(fontsize=7)
