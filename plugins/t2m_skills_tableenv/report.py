@@ -1,7 +1,7 @@
 """The skill library's quality report (``t2m skills report``, docs/guide/skills.md#quality-report).
 
 Per skill: Q-ensemble precision, recall and accuracy of the pessimistic prediction on validation
-data with a reliability curve; policy success in simulated evaluation scenes; dynamics error of the
+data with a reliability curve and its errors by outcome (each failure reason); policy success in simulated evaluation scenes; dynamics error of the
 moved object and of the others (position in mm, yaw in degrees) on validation successes; the OOD
 detection and false-positive rates stored by calibration; the dataset sizes.
 """
@@ -9,6 +9,7 @@ detection and false-positive rates stored by calibration; the dataset sizes.
 from __future__ import annotations
 
 import io
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +38,27 @@ def reliability(predicted: np.ndarray, success: np.ndarray) -> list[dict[str, fl
         mask = bins == b
         if mask.any():
             rows.append({"bin_low": round(float(RELIABILITY_BINS[b]), 2), "count": int(mask.sum()), "predicted": float(predicted[mask].mean()), "realised": float(success[mask].mean())})
+    return rows
+
+
+def errors_by_outcome(q_min: np.ndarray, failures: Sequence[str | None]) -> dict[str, dict[str, float]]:
+    """How the pessimistic prediction (min of 8 > 0.5) fares on each outcome of the validation
+    transitions: per failure reason (and ``"success"``), the count, the mean min-of-8 Q and the
+    fraction it gets wrong (a failure called a success, or a success called a failure). A reason
+    with a high wrong fraction is one the ensemble cannot see. Most frequent outcome first.
+
+    Args:
+        q_min: ``(N,)`` min-of-8 success probabilities.
+        failures: ``N`` failure reasons, ``None`` for successes.
+    """
+    outcomes = np.array(["success" if reason is None else reason for reason in failures], dtype=object)
+    called_success = np.asarray(q_min) > 0.5
+    rows: dict[str, dict[str, float]] = {}
+    names, counts = np.unique(outcomes, return_counts=True)
+    for name, count in sorted(zip(names.tolist(), counts.tolist()), key=lambda item: (-item[1], item[0])):
+        mask = outcomes == name
+        wrong = ~called_success[mask] if name == "success" else called_success[mask]
+        rows[name] = {"count": int(count), "mean_q_min": float(np.mean(q_min[mask])), "wrong": float(wrong.mean())}
     return rows
 
 
@@ -95,6 +117,7 @@ def report_library(checkpoints: Path, data: Path | None, episodes: int, out: Pat
             entry["q"] = q_metrics(skill.q_ensemble, validation)
             q_min = skill.q_values(validation.states(), validation.actions).min(dim=1).values.numpy()
             entry["reliability"] = reliability(q_min, transitions.success)
+            entry["q_by_outcome"] = errors_by_outcome(q_min, transitions.failure_names())
             keep = transitions.success
             entry["dynamics"] = dynamics_errors(
                 skill.dynamics, validation.successes(), transitions.row_order[keep], transitions.shuffle_range[keep], transitions.observation[keep], transitions.next_observation[keep]
@@ -132,6 +155,20 @@ def markdown_table(report: dict[str, Any]) -> str:
             f"| {dynamics.get('others_mm_median', float('nan')):.1f} | {percent(ood.get('detection_rate'))} | {percent(ood.get('false_positive_rate'))} "
             f"| {percent(ood.get('invalid_rejected_rate'))} |"
         )
+    outcome_rows = [
+        f"| {name} | {outcome} | {row['count']} | {row['mean_q_min']:.2f} | {row['wrong']:.1%} |"
+        for name, entry in report.items()
+        for outcome, row in entry.get("q_by_outcome", {}).items()
+    ]
+    if outcome_rows:
+        lines += [
+            "",
+            "Q-ensemble errors by outcome (validation): a failure called a success, or a success called a failure.",
+            "",
+            "| skill | outcome | transitions | mean min-of-8 Q | predicted wrongly |",
+            "|---|---|---|---|---|",
+            *outcome_rows,
+        ]
     return "\n".join(lines) + "\n"
 
 
