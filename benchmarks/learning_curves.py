@@ -11,7 +11,7 @@ budget, into ``WORK/<skill>-<N>/`` (resumable: a killed run continues where it s
 split's full size it is ``t2m train``'s default run, so a finished ``t2m train`` checkpoint copied
 there with its ``.training/`` states is reused), and
 measures each on the full validation split: Q precision / recall / accuracy / loss of the
-pessimistic prediction, the dynamics' median position error of the moved object (mm). A curve that
+pessimistic prediction and what it gets wrong per outcome (each failure reason), the dynamics' median position error of the moved object (mm). A curve that
 still rises at its largest size says more data would help. Prints a table and writes JSON.
 
 ``--validation-size N`` measures on the first N validation transitions only (chunks are
@@ -55,7 +55,9 @@ def main() -> None:
     from t2m_skills_tableenv.dataset import SkillTensors
     from t2m_skills_tableenv.checkpoints import load_q, load_weights
     from t2m_skills_tableenv.networks import Dynamics
-    from t2m_skills_tableenv.report import dynamics_errors
+    import torch
+
+    from t2m_skills_tableenv.report import dynamics_errors, errors_by_outcome
     from t2m_skills_tableenv.training import WEIGHT_FILES, q_metrics, train_skill
 
     models = tuple(args.models.split(","))
@@ -83,8 +85,12 @@ def main() -> None:
             results = train_skill(args.skill, models, args.data, checkpoint, overrides)
             point = {"train_size": size, "train_seconds": round(time.perf_counter() - started, 1)}
         if "q" in models:
-            point["q"] = q_metrics(load_q(checkpoint).eval(), validation)
+            ensemble = load_q(checkpoint).eval()
+            point["q"] = q_metrics(ensemble, validation)
             point["q"]["best_step"] = results["q"]["best_step"]
+            with torch.no_grad():
+                q_min = torch.sigmoid(ensemble(validation.states(), validation.actions)).min(dim=1).values.numpy()
+            point["q"]["by_outcome"] = errors_by_outcome(q_min, transitions.failure_names())
         if "dynamics" in models:
             dynamics = load_weights(checkpoint / WEIGHT_FILES["dynamics"], Dynamics()).eval()
             point["dynamics"] = dynamics_errors(
