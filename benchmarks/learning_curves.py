@@ -11,8 +11,9 @@ budget, into ``WORK/<skill>-<N>/`` (resumable: a killed run continues where it s
 split's full size it is ``t2m train``'s default run, so a finished ``t2m train`` checkpoint copied
 there with its ``.training/`` states is reused), and
 measures each on the full validation split: Q precision / recall / accuracy / loss of the
-pessimistic prediction and what it gets wrong per outcome (each failure reason), the dynamics' median position error of the moved object (mm). A curve that
-still rises at its largest size says more data would help. Prints a table and writes JSON.
+pessimistic prediction and what it gets wrong per outcome (each failure reason), the dynamics'
+median position error of the moved object (mm). A curve that still rises at its largest size says
+more data would help. Prints a table and writes JSON.
 
 ``--validation-size N`` measures on the first N validation transitions only (chunks are
 deterministic, so a curve measured on a smaller split stays comparable); ``--measure-only`` measures
@@ -50,13 +51,13 @@ def main() -> None:
     if missing:
         parser.error(f"missing {', '.join(missing)}")
 
+    import torch
+
     from t2m_core.atomic_files import write_json_atomic
     from t2m_core.data.generate import load_split
     from t2m_skills_tableenv.dataset import SkillTensors
     from t2m_skills_tableenv.checkpoints import load_q, load_weights
     from t2m_skills_tableenv.networks import Dynamics
-    import torch
-
     from t2m_skills_tableenv.report import dynamics_errors, errors_by_outcome
     from t2m_skills_tableenv.training import WEIGHT_FILES, q_metrics, train_skill
 

@@ -1,9 +1,10 @@
 """The skill library's quality report (``t2m skills report``, docs/guide/skills.md#quality-report).
 
 Per skill: Q-ensemble precision, recall and accuracy of the pessimistic prediction on validation
-data with a reliability curve and its errors by outcome (each failure reason); policy success in simulated evaluation scenes; dynamics error of the
-moved object and of the others (position in mm, yaw in degrees) on validation successes; the OOD
-detection and false-positive rates stored by calibration; the dataset sizes.
+data with a reliability curve and its errors by outcome (each failure reason); policy success in
+simulated evaluation scenes; dynamics error of the moved object and of the others (position in mm,
+yaw in degrees) on validation successes; the OOD detection and false-positive rates stored by
+calibration; the dataset sizes.
 """
 
 from __future__ import annotations
