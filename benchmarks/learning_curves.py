@@ -90,7 +90,7 @@ def main() -> None:
             point["q"] = q_metrics(ensemble, validation)
             point["q"]["best_step"] = results["q"]["best_step"]
             with torch.no_grad():
-                q_min = torch.sigmoid(ensemble(validation.states(), validation.actions)).min(dim=1).values.numpy()
+                q_min = ensemble.probabilities(validation.states(), validation.actions).min(dim=1).values.numpy()
             point["q"]["by_outcome"] = errors_by_outcome(q_min, transitions.failure_names())
         if "dynamics" in models:
             dynamics = load_weights(checkpoint / WEIGHT_FILES["dynamics"], Dynamics()).eval()
