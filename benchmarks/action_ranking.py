@@ -57,8 +57,8 @@ def main() -> None:
     from t2m_core.atomic_files import write_json_atomic
     from t2m_core.domain.observation import argument_first_order, skill_state
     from t2m_core.domain.primitives import get_primitive
-    from t2m_core.evaluation import SEED_SPACING
     from t2m_core.domain.skills import parse_skill_call
+    from t2m_core.evaluation import SEED_SPACING
     from t2m_core.registry import get_registry
     from t2m_core.tasks import load_task
 
