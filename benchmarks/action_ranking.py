@@ -62,8 +62,13 @@ def main() -> None:
     from t2m_core.registry import get_registry
     from t2m_core.tasks import load_task
 
-    call = parse_skill_call(args.call)
-    task = load_task(args.task)
+    from t2m_core.errors import T2MError
+
+    try:
+        call = parse_skill_call(args.call)
+        task = load_task(args.task)
+    except T2MError as error:
+        raise SystemExit(f"{error.message}\n{error.hint or ''}".rstrip()) from None
     low, _, high = args.seeds.partition("-")
     seeds = range(int(low), int(high or low) + 1)
     directories = [d for d in args.checkpoints.split(",") if d]
