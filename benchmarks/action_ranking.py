@@ -43,7 +43,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--task", required=True)
     parser.add_argument("--call", required=True, help='the skill call, e.g. "pick(yellow_box)"')
-    parser.add_argument("--seeds", default="0-9")
+    parser.add_argument("--seeds", default="0-9", help="seed indices: 0-9 or 0,3,5 (base seed = index x 1000)")
     parser.add_argument("--checkpoints", default="plugins/t2m_skills_tableenv/checkpoints",
                         help="comma-separated skill checkpoint directories; the first one's policy proposes")
     parser.add_argument("--samples", type=int, default=128, help="actions per seed")
@@ -51,6 +51,8 @@ def main() -> None:
     parser.add_argument("--sim", default="mujoco")
     parser.add_argument("--json", dest="json_out", default=None)
     args = parser.parse_args()
+    if args.samples < 2:
+        parser.error("--samples must be at least 2 (half near the policy, half screened)")
 
     from rich.progress import track
 
@@ -58,7 +60,7 @@ def main() -> None:
     from t2m_core.domain.observation import argument_first_order, skill_state
     from t2m_core.domain.primitives import get_primitive
     from t2m_core.domain.skills import parse_skill_call
-    from t2m_core.evaluation import SEED_SPACING
+    from t2m_core.evaluation import SEED_SPACING, parse_seed_indices
     from t2m_core.registry import get_registry
     from t2m_core.tasks import load_task
 
@@ -67,14 +69,13 @@ def main() -> None:
     try:
         call = parse_skill_call(args.call)
         task = load_task(args.task)
+        seeds = parse_seed_indices(args.seeds)
+        directories = [d for d in args.checkpoints.split(",") if d]
+        registry = get_registry()
+        simulator = registry.create("simulator", args.sim)
+        libraries = [registry.create("skill_library", "tableenv", {"checkpoints": d}) for d in directories]
     except T2MError as error:
         raise SystemExit(f"{error.message}\n{error.hint or ''}".rstrip()) from None
-    low, _, high = args.seeds.partition("-")
-    seeds = range(int(low), int(high or low) + 1)
-    directories = [d for d in args.checkpoints.split(",") if d]
-    registry = get_registry()
-    simulator = registry.create("simulator", args.sim)
-    libraries = [registry.create("skill_library", "tableenv", {"checkpoints": d}) for d in directories]
     primitive = get_primitive(call.name)
 
     states, actions, outcomes, seed_of = [], [], [], []
@@ -100,7 +101,7 @@ def main() -> None:
     print(f"{args.task} {args.call}: {len(success)} actions over {len(seeds)} seeds, {success.mean():.1%} succeed; "
           f"seeds with a success: {len(set(seed_index[success].tolist()))}")
 
-    report = {"task": args.task, "call": args.call, "seeds": list(seeds), "samples": args.samples, "noise": args.noise,
+    report = {"task": args.task, "call": args.call, "seeds": seeds, "samples": args.samples, "noise": args.noise,
               "success_rate": float(success.mean()), "checkpoints": {}}
     for directory, library in zip(directories, libraries):
         values = np.asarray(library[call.name].q_values(states_array, actions_array)).min(axis=1)
