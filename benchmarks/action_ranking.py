@@ -14,7 +14,10 @@ of the value against the simulated outcome (pooled, and averaged over the seeds 
 outcomes), precision and recall of ``min Q > 0.5``, and in how many seeds the best-rated action
 succeeds. The action set is the same for every checkpoint, so the comparison is paired.
 
-The call must be the first skill of the scene (nothing is executed before it).
+``--after "pick(red_box), place(red_box, rack), pick(hook)"`` first walks those calls in every scene,
+each executed as task rollouts advance (the best-valued of 256 noisy policy actions of the first
+checkpoint, up to four tries from the reached snapshot): the ranking is then of the call at that
+reached state. Seeds where a call of ``--after`` fails are skipped and counted.
 """
 
 from __future__ import annotations
@@ -46,6 +49,7 @@ def main() -> None:
     parser.add_argument("--seeds", default="0-9", help="seed indices: 0-9 or 0,3,5 (base seed = index x 1000)")
     parser.add_argument("--checkpoints", default="plugins/t2m_skills_tableenv/checkpoints",
                         help="comma-separated skill checkpoint directories; the first one's policy proposes")
+    parser.add_argument("--after", default="", help='calls executed before it, e.g. "pick(red_box), place(red_box, rack)"')
     parser.add_argument("--samples", type=int, default=128, help="actions per seed")
     parser.add_argument("--noise", type=float, default=0.3, help="σ around the policy's action, normalised units")
     parser.add_argument("--sim", default="mujoco")
@@ -59,7 +63,9 @@ def main() -> None:
     from t2m_core.atomic_files import write_json_atomic
     from t2m_core.domain.observation import argument_first_order, skill_state
     from t2m_core.domain.primitives import get_primitive
-    from t2m_core.domain.skills import parse_skill_call
+    from t2m_core.data.proposals import ProposalSampler
+    from t2m_core.data.rollouts import advance
+    from t2m_core.domain.skills import parse_skeleton, parse_skill_call
     from t2m_core.evaluation import SEED_SPACING, parse_seed_indices
     from t2m_core.registry import get_registry
     from t2m_core.tasks import load_task
@@ -69,6 +75,7 @@ def main() -> None:
     try:
         call = parse_skill_call(args.call)
         task = load_task(args.task)
+        before = parse_skeleton(args.after, task.objects) if args.after.strip() else ()
         seeds = parse_seed_indices(args.seeds)
         directories = [d for d in args.checkpoints.split(",") if d]
         registry = get_registry()
@@ -78,12 +85,21 @@ def main() -> None:
         raise SystemExit(f"{error.message}\n{error.hint or ''}".rstrip()) from None
     primitive = get_primitive(call.name)
 
-    states, actions, outcomes, seed_of = [], [], [], []
+    states, actions, outcomes, seed_of, not_reached = [], [], [], [], []
     rng = np.random.default_rng(0)
     for seed in track(seeds, description=f"{args.task} {args.call}", transient=True):
         reset = simulator.reset(task, seed=seed * SEED_SPACING)
+        objects = tuple(reset.state.object_names)
+        for earlier in before:
+            sampler = ProposalSampler(get_primitive(earlier.name), libraries[0][earlier.name])
+            encoded, policy_action = sampler.policy_action(simulator.observation(), objects, earlier.args)
+            if not advance(simulator, sampler, earlier, simulator.get_state(), encoded, policy_action, rng):
+                not_reached.append(seed)
+                break
+        if seed in not_reached:
+            continue
         snapshot = simulator.get_state()
-        order = argument_first_order(reset.state.object_names, call.args)
+        order = argument_first_order(objects, call.args)
         state = skill_state(simulator.observation(), order)
         mean = np.asarray(libraries[0][call.name].policy(state[None]))[0]
         near_policy = np.clip(mean + rng.normal(0.0, args.noise, (args.samples // 2, 4)), -1.0, 1.0)
@@ -96,13 +112,19 @@ def main() -> None:
             actions.append(action)
             outcomes.append(bool(result.success))
             seed_of.append(seed)
+    if not states:
+        raise SystemExit(f"no seed reached {args.call}: a call of --after failed in every one")
+    seeds = [s for s in seeds if s not in not_reached]
     states_array, actions_array = np.stack(states).astype(np.float32), np.stack(actions).astype(np.float32)
     success, seed_index = np.array(outcomes), np.array(seed_of)
     print(f"{args.task} {args.call}: {len(success)} actions over {len(seeds)} seeds, {success.mean():.1%} succeed; "
-          f"seeds with a success: {len(set(seed_index[success].tolist()))}")
+          f"seeds with a success: {len(set(seed_index[success].tolist()))}"
+          + (f"; --after failed in seeds {not_reached}" if not_reached else ""))
+    print("  successes per seed: " + ", ".join(f"{s}: {int(success[seed_index == s].sum())}" for s in seeds))
 
-    report = {"task": args.task, "call": args.call, "seeds": seeds, "samples": args.samples, "noise": args.noise,
-              "success_rate": float(success.mean()), "checkpoints": {}}
+    report = {"task": args.task, "call": args.call, "after": args.after, "seeds": seeds, "not_reached": not_reached, "samples": args.samples, "noise": args.noise,
+              "success_rate": float(success.mean()),
+              "successes_per_seed": [int(success[seed_index == s].sum()) for s in seeds], "checkpoints": {}}
     for directory, library in zip(directories, libraries):
         values = np.asarray(library[call.name].q_values(states_array, actions_array)).min(axis=1)
         predicted = values > 0.5

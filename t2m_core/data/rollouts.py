@@ -164,11 +164,11 @@ def task_rollout_rows(
                 result = simulator.execute(call.name, call.args, action)
                 yield make_row(objects, call.args, NOT_ENUMERATED, reset.accepted_seed, observation, action, result.observation,
                                result.success, result.truncated, result.failure)
-        if index == last or not _advance(simulator, sampler, call, snapshot, encoded, policy_action, rng):
+        if index == last or not advance(simulator, sampler, call, snapshot, encoded, policy_action, rng):
             return
 
 
-def _advance(simulator: Any, sampler: ProposalSampler, call: Any, snapshot: Any, encoded: np.ndarray, policy_action: np.ndarray,
+def advance(simulator: Any, sampler: ProposalSampler, call: Any, snapshot: Any, encoded: np.ndarray, policy_action: np.ndarray,
              rng: np.random.Generator) -> bool:
     """Execute ``call`` from ``snapshot`` with best-valued draws until one succeeds (at most
     :data:`ADVANCE_ATTEMPTS`); whether one did (the simulator is left in its outcome)."""
