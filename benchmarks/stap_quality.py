@@ -24,7 +24,7 @@ def main() -> None:
     parser.add_argument("--json", dest="json_out", required=True)
     parser.add_argument("--planners", default="policy-cem,policy,random-cem")
     parser.add_argument("--tasks", default="all")
-    parser.add_argument("--seeds", default="0-9")
+    parser.add_argument("--seeds", default="0-9", help="seed indices: 0-9 or 0,3,5 (base seed = index x 1000)")
     parser.add_argument("--population", type=int, default=None, help="override the CEM/shooting population")
     parser.add_argument("--sim", default="mujoco")
     parser.add_argument("--checkpoints", default=None, help="skill checkpoints directory (default: the shipped ones)")
@@ -37,12 +37,16 @@ def main() -> None:
     args = parser.parse_args()
 
     from t2m_core.atomic_files import write_json_atomic
+    from t2m_core.errors import T2MError
+    from t2m_core.evaluation import parse_seed_indices
     from t2m_core.executors import make_executor
     from t2m_core.tasks import task_ids
 
     tasks = list(task_ids()) if args.tasks == "all" else args.tasks.split(",")
-    low, _, high = args.seeds.partition("-")
-    seeds = range(int(low), int(high or low) + 1)
+    try:
+        seeds = parse_seed_indices(args.seeds)
+    except T2MError as error:
+        parser.error(f"{error.message} ({error.hint})")
     planner_names = args.planners.split(",")
     jobs = [(planner_name, task_id, seed) for planner_name in planner_names for task_id in tasks for seed in seeds]
     run = functools.partial(_run_episode, sim=args.sim, checkpoints=args.checkpoints, population=args.population,
