@@ -61,10 +61,10 @@ def main() -> None:
     from rich.progress import track
 
     from t2m_core.atomic_files import write_json_atomic
-    from t2m_core.domain.observation import argument_first_order, skill_state
-    from t2m_core.domain.primitives import get_primitive
     from t2m_core.data.proposals import ProposalSampler
     from t2m_core.data.rollouts import advance
+    from t2m_core.domain.observation import argument_first_order, skill_state
+    from t2m_core.domain.primitives import get_primitive
     from t2m_core.domain.skills import parse_skeleton, parse_skill_call
     from t2m_core.evaluation import SEED_SPACING, parse_seed_indices
     from t2m_core.registry import get_registry
@@ -113,7 +113,8 @@ def main() -> None:
             outcomes.append(bool(result.success))
             seed_of.append(seed)
     if not states:
-        raise SystemExit(f"no seed reached {args.call}: a call of --after failed in every one")
+        raise SystemExit(f"no seed reached {args.call}: a call of --after failed in every one "
+                         f"(seeds {not_reached}); try more --seeds or a shorter --after")
     seeds = [s for s in seeds if s not in not_reached]
     states_array, actions_array = np.stack(states).astype(np.float32), np.stack(actions).astype(np.float32)
     success, seed_index = np.array(outcomes), np.array(seed_of)
@@ -122,8 +123,8 @@ def main() -> None:
           + (f"; --after failed in seeds {not_reached}" if not_reached else ""))
     print("  successes per seed: " + ", ".join(f"{s}: {int(success[seed_index == s].sum())}" for s in seeds))
 
-    report = {"task": args.task, "call": args.call, "after": args.after, "seeds": seeds, "not_reached": not_reached, "samples": args.samples, "noise": args.noise,
-              "success_rate": float(success.mean()),
+    report = {"task": args.task, "call": args.call, "after": args.after, "seeds": seeds, "not_reached": not_reached,
+              "samples": args.samples, "noise": args.noise, "success_rate": float(success.mean()),
               "successes_per_seed": [int(success[seed_index == s].sum()) for s in seeds], "checkpoints": {}}
     for directory, library in zip(directories, libraries):
         values = np.asarray(library[call.name].q_values(states_array, actions_array)).min(axis=1)
