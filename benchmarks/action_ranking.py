@@ -63,14 +63,12 @@ def main() -> None:
     from t2m_core.atomic_files import write_json_atomic
     from t2m_core.data.proposals import ProposalSampler
     from t2m_core.data.rollouts import advance
-    from t2m_core.domain.observation import argument_first_order, skill_state
     from t2m_core.domain.primitives import get_primitive
     from t2m_core.domain.skills import parse_skeleton, parse_skill_call
+    from t2m_core.errors import T2MError
     from t2m_core.evaluation import SEED_SPACING, parse_seed_indices
     from t2m_core.registry import get_registry
     from t2m_core.tasks import load_task
-
-    from t2m_core.errors import T2MError
 
     try:
         call = parse_skill_call(args.call)
@@ -84,24 +82,25 @@ def main() -> None:
     except T2MError as error:
         raise SystemExit(f"{error.message}\n{error.hint or ''}".rstrip()) from None
     primitive = get_primitive(call.name)
+    samplers = {c.name: ProposalSampler(get_primitive(c.name), libraries[0][c.name]) for c in (*before, call)}
+
+    def reached(objects: tuple[str, ...]) -> bool:
+        """Walk ``--after`` from the reset scene as task rollouts advance; whether every call succeeded."""
+        for earlier in before:
+            encoded, policy_action = samplers[earlier.name].policy_action(simulator.observation(), objects, earlier.args)
+            if not advance(simulator, samplers[earlier.name], earlier, simulator.get_state(), encoded, policy_action, rng):
+                return False
+        return True
 
     states, actions, outcomes, seed_of, not_reached = [], [], [], [], []
     rng = np.random.default_rng(0)
     for seed in track(seeds, description=f"{args.task} {args.call}", transient=True):
-        reset = simulator.reset(task, seed=seed * SEED_SPACING)
-        objects = tuple(reset.state.object_names)
-        for earlier in before:
-            sampler = ProposalSampler(get_primitive(earlier.name), libraries[0][earlier.name])
-            encoded, policy_action = sampler.policy_action(simulator.observation(), objects, earlier.args)
-            if not advance(simulator, sampler, earlier, simulator.get_state(), encoded, policy_action, rng):
-                not_reached.append(seed)
-                break
-        if seed in not_reached:
+        objects = tuple(simulator.reset(task, seed=seed * SEED_SPACING).state.object_names)
+        if not reached(objects):
+            not_reached.append(seed)
             continue
         snapshot = simulator.get_state()
-        order = argument_first_order(objects, call.args)
-        state = skill_state(simulator.observation(), order)
-        mean = np.asarray(libraries[0][call.name].policy(state[None]))[0]
+        state, mean = samplers[call.name].policy_action(simulator.observation(), objects, call.args)
         near_policy = np.clip(mean + rng.normal(0.0, args.noise, (args.samples // 2, 4)), -1.0, 1.0)
         geometric = simulator.geometric_state()
         screened = np.stack([primitive.screened_action(geometric, call.args, rng) for _ in range(args.samples - len(near_policy))])
@@ -118,14 +117,15 @@ def main() -> None:
     seeds = [s for s in seeds if s not in not_reached]
     states_array, actions_array = np.stack(states).astype(np.float32), np.stack(actions).astype(np.float32)
     success, seed_index = np.array(outcomes), np.array(seed_of)
+    successes_per_seed = [int(success[seed_index == s].sum()) for s in seeds]
     print(f"{args.task} {args.call}: {len(success)} actions over {len(seeds)} seeds, {success.mean():.1%} succeed; "
           f"seeds with a success: {len(set(seed_index[success].tolist()))}"
           + (f"; --after failed in seeds {not_reached}" if not_reached else ""))
-    print("  successes per seed: " + ", ".join(f"{s}: {int(success[seed_index == s].sum())}" for s in seeds))
+    print("  successes per seed: " + ", ".join(f"{s}: {n}" for s, n in zip(seeds, successes_per_seed)))
 
     report = {"task": args.task, "call": args.call, "after": args.after, "seeds": seeds, "not_reached": not_reached,
               "samples": args.samples, "noise": args.noise, "success_rate": float(success.mean()),
-              "successes_per_seed": [int(success[seed_index == s].sum()) for s in seeds], "checkpoints": {}}
+              "successes_per_seed": successes_per_seed, "checkpoints": {}}
     for directory, library in zip(directories, libraries):
         values = np.asarray(library[call.name].q_values(states_array, actions_array)).min(axis=1)
         predicted = values > 0.5
