@@ -210,14 +210,15 @@ class Search:
 
     def ranked(self, prefix: list[SkillCall], candidates: list[Candidate]) -> list[Candidate]:
         """The candidates the search may append, best S_skill first: all of them, as in the paper,
-        less revisits (``revisits="skip"``), regressions (``regressions="skip"``) and those with a step
-        at or below τ (``below_tau="skip"``)."""
+        less revisits (``revisits="skip"``; with ``"last"``, unless no other candidate is left),
+        regressions (``regressions="skip"``) and those with a step at or below τ (``below_tau="skip"``)."""
         steps = len(prefix) + 1
         kept = [
             c for c in candidates
-            if not (self.options.revisits == "skip" and c.revisit) and not (self.options.regressions == "skip" and c.regression)
-            and not (self.options.below_tau == "skip" and not self.ok(c.plan, steps))
+            if not (self.options.regressions == "skip" and c.regression) and not (self.options.below_tau == "skip" and not self.ok(c.plan, steps))
         ]
+        if self.options.revisits != "allow" and (self.options.revisits == "skip" or any(not c.revisit for c in kept)):
+            kept = [c for c in kept if not c.revisit]
         return sorted(kept, key=lambda c: -c.score)
 
     def record_step(self, prefix: list[SkillCall], candidates: list[Candidate], chosen: Candidate | None, terminal: bool) -> None:

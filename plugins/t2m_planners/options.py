@@ -8,6 +8,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from pydantic.fields import FieldInfo
 
 AllowOrSkip = Literal["allow", "skip"]
+Revisits = Literal["allow", "skip", "last"]
 
 
 class PlannerOptions(BaseModel):
@@ -37,10 +38,11 @@ class LookaheadOptions(PlannerOptions):
         description="greedy candidates: the K skills the language model generates (paper), or every symbolically "
         "valid grounding, each scored by the language model (grounded)",
     )
-    revisits: AllowOrSkip = Field(
+    revisits: Revisits = Field(
         "allow",
         description="greedy candidates whose predicted situation repeats one already on the planned path: chosen "
-        "like any other (allow, paper) or never chosen (skip)",
+        "like any other (allow, paper), never chosen (skip), or chosen only at a step where no other candidate can "
+        "be (last)",
     )
     below_tau: AllowOrSkip = Field(
         "allow",
@@ -95,7 +97,7 @@ class HybridOptions(LookaheadOptions):
     only from the empty prefix (docs/guide/deviations.md#one-shooting-query-per-episode)."""
 
     proposals: Literal["generated", "grounded"] = _with_default("proposals", "grounded")  # type: ignore[assignment]
-    revisits: AllowOrSkip = _with_default("revisits", "skip")  # type: ignore[assignment]
+    revisits: Revisits = _with_default("revisits", "skip")  # type: ignore[assignment]
     below_tau: AllowOrSkip = _with_default("below_tau", "skip")  # type: ignore[assignment]
     backtracks: int = _with_default("backtracks", 5)  # type: ignore[assignment]
     regressions: AllowOrSkip = _with_default("regressions", "skip")  # type: ignore[assignment]

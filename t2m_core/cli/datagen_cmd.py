@@ -26,20 +26,21 @@ def datagen(
     seed: Annotated[int, typer.Option("--seed", min=0, help="Base seed of the dataset.")] = 0,
     chunk_size: Annotated[int, typer.Option("--chunk-size", min=1, help="Transitions per shard.")] = 250,
     sampler: Annotated[
-        str, typer.Option("--sampler", help="Action sampler: screened (default), heuristic, uniform, or proposal (a skill library's planner proposals).")
+        str, typer.Option("--sampler", help="Action sampler: screened (default), heuristic, uniform, proposal (a skill library's planner proposals) "
+                     "or planned (the feasibility planner's own actions along task rollouts; needs --scenes tasks).")
     ] = "screened",
     actions_per_scene: Annotated[
         int, typer.Option("--actions-per-scene", min=1, help="Actions executed from each reset scene (restored exactly between them); above 1 makes data cheaper.")
     ] = 1,
     proposal_checkpoints: Annotated[
         Path | None,
-        typer.Option("--proposal-checkpoints", help="With --sampler proposal: the checkpoints it proposes with (default: the library's shipped ones)."),
+        typer.Option("--proposal-checkpoints", help="With --sampler proposal or planned: the checkpoints it proposes with (default: the library's shipped ones)."),
     ] = None,
-    proposal_library: Annotated[str, typer.Option("--proposal-library", help="With --sampler proposal: the skill library plugin.")] = "tableenv",
+    proposal_library: Annotated[str, typer.Option("--proposal-library", help="With --sampler proposal or planned: the skill library plugin.")] = "tableenv",
     scenes: Annotated[
         str,
         typer.Option("--scenes", help="Where transitions start: data (enumerated symbolic states, default), tasks (states reached along "
-                     "the task suite's reference skeletons; needs --sampler proposal) or tasks:ID,ID (those tasks' skeletons only)."),
+                     "the task suite's reference skeletons; needs --sampler proposal or planned) or tasks:ID,ID (those tasks' skeletons only)."),
     ] = "data",
     skeleton: Annotated[
         str | None,
@@ -52,7 +53,7 @@ def datagen(
     valid skills (train, validation) or unsimulated invalid ones (invalid). Rerunning the same
     command resumes: finished shards are kept. With --executor ray the chunks run on a Ray cluster,
     whose nodes must all see --out; the shards are the same bytes either way."""
-    from t2m_core.data.chunks import SCENES, ProposalSource
+    from t2m_core.data.chunks import LIBRARY_SAMPLERS, SCENES, ProposalSource
     from t2m_core.data.generate import DatasetJob, default_workers, generate_dataset
     from t2m_core.data.proposals import checkpoint_digest, library_digest
     from t2m_core.data.scenes import DATA_SKILLS
@@ -66,15 +67,17 @@ def datagen(
         sim = get_registry().get("simulator", sim).name  # an unknown name fails here, with the choices
     if scenes.partition(":")[0] not in SCENES:
         raise T2MError(f"unknown scene source {scenes!r}", f"use one of: {', '.join(SCENES)}, or tasks:ID,ID")
-    if scenes != "data" and sampler != "proposal":
-        raise T2MError("--scenes tasks advances along the skeletons with a skill library's proposals", "add --sampler proposal")
-    if proposal_checkpoints is not None and sampler != "proposal":
-        raise T2MError("--proposal-checkpoints is for the proposal sampler", "add --sampler proposal, or drop --proposal-checkpoints")
+    if scenes != "data" and sampler not in LIBRARY_SAMPLERS:
+        raise T2MError("--scenes tasks advances along the skeletons with a skill library's proposals", "add --sampler proposal (or planned)")
+    if sampler == "planned" and scenes == "data":
+        raise T2MError("--sampler planned plans along task rollouts", "add --scenes tasks or tasks:ID")
+    if proposal_checkpoints is not None and sampler not in LIBRARY_SAMPLERS:
+        raise T2MError("--proposal-checkpoints is for the proposal and planned samplers", "add --sampler proposal, or drop --proposal-checkpoints")
     if skeleton is not None:
         from t2m_core.domain.skills import parse_skeleton
 
         skeleton = ", ".join(str(call) for call in parse_skeleton(skeleton))  # canonical spacing: the same order, the same dataset
-    proposal_directory = _proposal_directory(proposal_library, proposal_checkpoints) if sampler == "proposal" and split != "invalid" else None
+    proposal_directory = _proposal_directory(proposal_library, proposal_checkpoints) if sampler in LIBRARY_SAMPLERS and split != "invalid" else None
     ensure_writable_directory(out)
     jobs = []
     for name in skills:

@@ -48,13 +48,21 @@ SAMPLERS: dict[str, str] = {
     "heuristic": "exploration_action",
     "uniform": "uniform",
     "proposal": "proposal",
+    "planned": "planned",
 }
 """Action samplers of data generation -> :class:`Primitive` method (``uniform``: U[-1, 1]^4;
-``proposal``: a skill library's proposals, :mod:`t2m_core.data.proposals`)."""
+``proposal``: a skill library's proposals, :mod:`t2m_core.data.proposals`; ``planned``: the
+feasibility planner's actions along task rollouts, :mod:`t2m_core.data.rollouts`)."""
+LIBRARY_SAMPLERS: tuple[str, ...] = ("proposal", "planned")
+"""Samplers that propose with a skill library (they need one, and only they may roll out tasks)."""
+UNBALANCED_SAMPLERS: tuple[str, ...] = ("planned",)
+"""Samplers whose chunks keep every transition (no balancing): a planned rollout is there for the
+planner's failures, and a chunk that dropped failures once it held its share would keep only the
+successes of its later scenes (docs/guide/skills.md#planned-rollouts)."""
 SCENES: tuple[str, ...] = ("data", "tasks")
 """Where simulated transitions start: ``data``, the enumerated symbolic states with distractors
 (:mod:`t2m_core.data.scenes`); ``tasks``, states reached along rollouts of the task suite's
-reference skeletons (:mod:`t2m_core.data.rollouts`, proposal sampler only), or ``tasks:ID,ID``
+reference skeletons (:mod:`t2m_core.data.rollouts`, proposal or planned sampler), or ``tasks:ID,ID``
 along those of the named tasks only."""
 
 
@@ -90,7 +98,7 @@ class ChunkSpec:
         actions_per_scene: actions executed from each reset scene of a simulated split, each from
             the same exact snapshot: a reset costs 2-4 executions, so more than one action per scene
             makes data several times cheaper (docs/guide/skills.md#actions-per-scene).
-        proposal: for the ``proposal`` sampler, the skill library it proposes with: ``library``
+        proposal: for the ``proposal`` and ``planned`` samplers, the skill library it proposes with: ``library``
             (plugin name), ``checkpoints`` (directory, one sub-directory per skill) and ``digest``
             (:func:`~t2m_core.data.proposals.checkpoint_digest` of this skill's checkpoint, which
             the chunk's content depends on; the directory does not; with task scenes,
@@ -119,15 +127,18 @@ class ChunkSpec:
             raise DataGenerationError(f"unknown split {self.split!r}", f"use one of: {', '.join(SPLITS)}")
         if self.sampler not in SAMPLERS:
             raise DataGenerationError(f"unknown action sampler {self.sampler!r}", f"use one of: {', '.join(SAMPLERS)}")
-        if (self.sampler == "proposal") != (self.proposal is not None) and self.simulated:
-            raise DataGenerationError("the proposal sampler, and only it, needs a proposal skill library", "give --proposal-checkpoints with --sampler proposal")
+        if (self.sampler in LIBRARY_SAMPLERS) != (self.proposal is not None) and self.simulated:
+            raise DataGenerationError("the proposal and planned samplers, and only they, need a proposal skill library",
+                                      "give --proposal-checkpoints with --sampler proposal or planned")
         if self.skeleton is not None:
             self._check_skeleton()
         elif self.scenes != "data":
             self._check_rollout_tasks()
-        if self.scenes != "data" and (self.sampler != "proposal" or not self.simulated):
-            raise DataGenerationError("task-rollout scenes need the proposal sampler (it advances along the skeletons) and a simulated split",
+        if self.scenes != "data" and (self.sampler not in LIBRARY_SAMPLERS or not self.simulated):
+            raise DataGenerationError("task-rollout scenes need the proposal or planned sampler (it advances along the skeletons) and a simulated split",
                                       "add --sampler proposal, or drop --scenes tasks")
+        if self.sampler == "planned" and self.scenes == "data" and self.simulated:
+            raise DataGenerationError("the planned sampler plans along task rollouts, not in data scenes", "add --scenes tasks or tasks:ID")
         if self.size < 1 or self.index < 0 or self.base_seed < 0 or self.actions_per_scene < 1:
             raise DataGenerationError(f"chunk size and actions per scene must be >= 1 and index, seed >= 0; got {self}")
 
@@ -228,7 +239,8 @@ def generate_chunk(spec: ChunkSpec, simulator: Any = None) -> tuple[Transitions,
 
     Simulated splits reset ``simulator`` to a drawn (state, call) scene, then draw an action with the
     spec's sampler and execute it, ``actions_per_scene`` times from the same snapshot, keeping every
-    success and failures only while they are under 60 % of the chunk (the balancing rule). The invalid split encodes analytically sampled scenes
+    success and failures only while they are under 60 % of the chunk (the balancing rule; the
+    samplers of :data:`UNBALANCED_SAMPLERS` keep every failure). The invalid split encodes analytically sampled scenes
     of symbolically invalid calls with uniform actions, reward 0 and ``next_observation =
     observation``.
 
@@ -244,7 +256,7 @@ def generate_chunk(spec: ChunkSpec, simulator: Any = None) -> tuple[Transitions,
     rng = spec.rng()
     stats = ChunkStats()
     started = time.perf_counter()
-    max_failures = spec.size - math.ceil(MIN_SUCCESS_FRACTION * spec.size)
+    max_failures = spec.size if spec.sampler in UNBALANCED_SAMPLERS else spec.size - math.ceil(MIN_SUCCESS_FRACTION * spec.size)
     rows: list[dict[str, Any]] = []
     kept_failures = 0
     while len(rows) < spec.size:

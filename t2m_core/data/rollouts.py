@@ -12,6 +12,14 @@ planner), retrying a few draws, and ends the rollout at a call it cannot advance
 ``skeleton`` walks that sequence of its one task instead, another order a planner may choose
 (docs/guide/skills.md#other-orders).
 
+With the ``planned`` sampler a rollout goes where a run goes (docs/guide/skills.md#planned-rollouts):
+before every call the feasibility planner (:data:`ROLLOUT_PLANNER`, a run's default, with its
+default options) plans the rest of the skeleton from the reached state, closed loop as a run
+re-plans; the chunk's skill executes that plan's action, then the action plus PolicyCEM's noise,
+and the rollout advances with the planned action (the best-valued draws when it fails). Those are
+the actions whose values the planner trusts most, so where its learned values are wrong they are
+wrong there.
+
 A rollout depends on every skill of its skeleton, so its chunks record the digest of the whole
 library (:func:`~t2m_core.data.proposals.library_digest`).
 """
@@ -25,7 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from t2m_core.data.proposals import ProposalSampler, library_digest, load_proposal_library
+from t2m_core.data.proposals import PROPOSAL_NOISE, ProposalSampler, library_digest, load_proposal_library
 from t2m_core.domain.primitives import get_primitive
 from t2m_core.domain.sampling import SamplingError
 from t2m_core.domain.skills import SkillCall, parse_skeleton, validate_skill_call
@@ -42,6 +50,9 @@ ADVANCE_ATTEMPTS = 4
 NOT_ENUMERATED = -1
 """The ``symbolic_state`` column of a rollout row: its state is reached, not one of the enumerated
 data states."""
+
+ROLLOUT_PLANNER = "policy-cem"
+"""The feasibility planner of ``planned`` rollouts (with its default options, as a run uses it)."""
 
 RowMaker = Callable[..., dict[str, Any]]
 
@@ -150,28 +161,46 @@ def task_rollout_rows(
     objects = tuple(reset.state.object_names)
     skeleton = task.reference_skeleton if spec.skeleton is None else rollout_skeleton(task, spec.skeleton)
     last = max(i for i, call in enumerate(skeleton) if call.name == spec.skill)
+    planner = rollout_planner() if spec.sampler == "planned" else None
     for index, call in enumerate(skeleton[: last + 1]):
         sampler = ProposalSampler(get_primitive(call.name), library[call.name])
         observation = simulator.observation()
         state = simulator.geometric_state()
         snapshot = simulator.get_state()
         encoded, policy_action = sampler.policy_action(observation, objects, call.args)
+        planned = None if planner is None else planner.plan(observation, skeleton[index:], library, objects).actions[0].astype(np.float64)
         if call.name == spec.skill:
             for attempt in range(spec.actions_per_scene):
                 if attempt:
                     simulator.set_state(snapshot)
-                action = sampler.draw(state, call.args, encoded, policy_action, rng)
+                if planned is None:
+                    action = sampler.draw(state, call.args, encoded, policy_action, rng)
+                else:
+                    action = planned if attempt == 0 else np.clip(planned + rng.normal(0.0, PROPOSAL_NOISE, planned.shape), -1.0, 1.0)
                 result = simulator.execute(call.name, call.args, action)
                 yield make_row(objects, call.args, NOT_ENUMERATED, reset.accepted_seed, observation, action, result.observation,
                                result.success, result.truncated, result.failure)
-        if index == last or not advance(simulator, sampler, call, snapshot, encoded, policy_action, rng):
+        if index == last or not advance(simulator, sampler, call, snapshot, encoded, policy_action, rng, planned):
             return
 
 
+@lru_cache(maxsize=1)
+def rollout_planner() -> Any:
+    """The :data:`ROLLOUT_PLANNER` feasibility planner, built once per process."""
+    from t2m_core.registry import get_registry
+
+    return get_registry().create("feasibility_planner", ROLLOUT_PLANNER)
+
+
 def advance(simulator: Any, sampler: ProposalSampler, call: Any, snapshot: Any, encoded: np.ndarray, policy_action: np.ndarray,
-             rng: np.random.Generator) -> bool:
-    """Execute ``call`` from ``snapshot`` with best-valued draws until one succeeds (at most
-    :data:`ADVANCE_ATTEMPTS`); whether one did (the simulator is left in its outcome)."""
+             rng: np.random.Generator, planned: np.ndarray | None = None) -> bool:
+    """Execute ``call`` from ``snapshot`` with the ``planned`` action ``(4,)`` when given, then with
+    best-valued draws until one succeeds (at most :data:`ADVANCE_ATTEMPTS`); whether one did (the
+    simulator is left in its outcome)."""
+    if planned is not None:
+        simulator.set_state(snapshot)
+        if simulator.execute(call.name, call.args, planned).success:
+            return True
     for _ in range(ADVANCE_ATTEMPTS):
         simulator.set_state(snapshot)
         if simulator.execute(call.name, call.args, sampler.optimum(encoded, policy_action, rng)).success:

@@ -14,6 +14,7 @@ from t2m_core.data.generate import DatasetJob, _existing_header, _require_same_d
 from t2m_core.data.proposals import library_digest
 from t2m_core.data.rollouts import NOT_ENUMERATED, TASK_SEED_FLOOR, rollout_tasks
 from t2m_core.data.scenes import DATA_SKILLS
+from t2m_core.domain.skills import parse_skeleton
 from t2m_core.registry import get_registry
 
 SKILLS = ("pick", "place", "pull", "push")
@@ -54,7 +55,7 @@ def test_a_rollout_chunk_is_deterministic_and_starts_from_reached_states(shipped
 
 
 def test_task_scenes_need_the_proposal_sampler_and_a_simulated_split(shipped) -> None:
-    with pytest.raises(DataGenerationError, match="proposal sampler"):
+    with pytest.raises(DataGenerationError, match="proposal or planned sampler"):
         ChunkSpec("place", "train", 0, 5, scenes="tasks")
     with pytest.raises(DataGenerationError, match="unknown scene source"):
         ChunkSpec("place", "train", 0, 5, scenes="kitchen")
@@ -153,3 +154,51 @@ def test_a_rollout_skeleton_is_checked_and_keeps_its_dataset_apart(tmp_path, shi
     assert _existing_header(other, other.chunks()[0]) is None  # the reference order's shard is not this order's
     with pytest.raises(DataGenerationError, match="skeleton None"):
         _require_same_dataset(other)
+
+
+def test_a_planned_rollout_executes_the_feasibility_planners_action_then_noisy_ones(shipped) -> None:
+    order = "pick(red_box), place(red_box, rack)"
+    spec = ChunkSpec("pick", "train", 0, 3, sampler="planned", actions_per_scene=3, proposal=shipped, scenes="tasks:task2", skeleton=order)
+    rows, _ = generate_chunk(spec, get_registry().create("simulator", "mujoco"))
+    assert spec.header()["sampler"] == "planned"
+    assert np.all(rows.scene_seed == rows.scene_seed[0])  # one scene: the pick is the skeleton's first call
+    np.testing.assert_array_equal(rows.observation[1], rows.observation[0])
+    # a run's planner, built apart from the data code, plans the same skeleton from the same state
+    registry = get_registry()
+    task2 = rollout_tasks("pick", ("task2",))[0]
+    objects = rows.object_names(0)
+    planner = registry.create("feasibility_planner", "policy-cem")
+    skills = registry.create("skill_library", "tableenv")
+    plan = planner.plan(rows.observation[0], list(parse_skeleton(order, task2.objects)), skills, objects)
+    np.testing.assert_allclose(rows.action[0], plan.actions[0], atol=1e-6)
+    for row in (1, 2):
+        assert not np.allclose(rows.action[row], rows.action[0])
+        assert np.all(np.abs(rows.action[row]) <= 1.0)
+        assert np.abs(rows.action[row] - rows.action[0]).max() < 1.5  # PolicyCEM's sigma, not uniform draws
+
+
+def test_the_planned_sampler_needs_task_scenes_and_a_library(shipped) -> None:
+    with pytest.raises(DataGenerationError, match="task rollouts"):
+        ChunkSpec("pick", "train", 0, 3, sampler="planned", proposal=shipped)
+    with pytest.raises(DataGenerationError, match="need a proposal skill library"):
+        ChunkSpec("pick", "train", 0, 3, sampler="planned", scenes="tasks")
+    # the invalid split is never planned: its chunks are the usual uniform ones
+    job = DatasetJob("/tmp/unused", "pick", "invalid", 10, sampler="planned", proposal=shipped, scenes="tasks")
+    assert all(spec.header()["sampler"] == "uniform" for spec in job.chunks())
+
+
+def test_planned_chunks_keep_every_failure_and_proposal_chunks_balance(shipped, monkeypatch) -> None:
+    import t2m_core.data.chunks as chunks
+
+    def failing_rollout(spec, simulator, rng, stats, skills, make_row):  # a double: every draw fails
+        observation = np.zeros((8, 12), np.float32)
+        for _ in range(spec.actions_per_scene):
+            yield make_row(("table", "red_box"), ("red_box",), NOT_ENUMERATED, TASK_SEED_FLOOR, observation, np.zeros(4), observation,
+                           bool(rng.random() < 0.1), False, "collision")
+
+    monkeypatch.setattr(chunks, "task_rollout_rows", failing_rollout)
+    planned, planned_stats = generate_chunk(ChunkSpec("pick", "train", 0, 40, sampler="planned", actions_per_scene=4, proposal=shipped, scenes="tasks"), object())
+    assert planned_stats.discarded_failures == 0 and planned_stats.draws == 40
+    assert planned.success.sum() < 16  # under the 40 % the balancing rule would have waited for
+    balanced, stats = generate_chunk(ChunkSpec("pick", "train", 0, 40, sampler="proposal", actions_per_scene=4, proposal=shipped, scenes="tasks"), object())
+    assert balanced.success.sum() == 16 and stats.discarded_failures > 0

@@ -107,6 +107,17 @@ def test_skipping_revisits_never_returns_to_a_planned_situation(drift: float) ->
     # out of the workspace
     assert chosen_third("allow") == "pick(blue_box)"
     assert chosen_third("skip") == "pick(red_box)"
+    assert chosen_third("last") == "pick(red_box)"  # another candidate is left: the revisit waits
+
+
+def test_a_revisit_last_is_chosen_when_no_other_candidate_is_left() -> None:
+    model = RuleModel(next_skills=["['pick(blue_box)']", "['place(blue_box, rack)']", "['pick(blue_box)']"])
+    events: list = []
+    result = LookaheadPlanner(LookaheadOptions(max_depth=3, revisits="last"), "greedy-search").plan(context(model, SymbolicFeasibility(), events))
+    assert [str(c) for c in result.skeleton] == ["pick(blue_box)", "place(blue_box, rack)", "pick(blue_box)"]
+    assert not result.found and "within 3 skills" in result.failure  # it went on to d_max instead of stopping at step 3
+    last = [e for e in events if e["event"] == "greedy_step"][-1]
+    assert [(c["skill"], c["revisit"], c["chosen"]) for c in last["candidates"]] == [("pick(blue_box)", True, True)]
 
 
 def test_skipping_revisits_fails_early_when_every_candidate_revisits() -> None:
