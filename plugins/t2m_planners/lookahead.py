@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from t2m_core.domain.goals import goal_satisfied
+from t2m_core.domain.objects import ObjectKind, object_spec
 from t2m_core.domain.observation import decode_observation
 from t2m_core.domain.propositions import Proposition
 from t2m_core.domain.relations import situation, symbolic_state
@@ -210,16 +211,20 @@ class Search:
 
     def ranked(self, prefix: list[SkillCall], candidates: list[Candidate]) -> list[Candidate]:
         """The candidates the search may append, best S_skill first: all of them, as in the paper,
-        less revisits (``revisits="skip"``; with ``"last"``, unless no other candidate is left),
-        regressions (``regressions="skip"``) and those with a step at or below τ (``below_tau="skip"``)."""
+        less revisits (``revisits="skip"``; with ``"last"``, those that put a box down stay when no
+        other candidate is left), regressions (``regressions="skip"``) and those with a step at or
+        below τ (``below_tau="skip"``)."""
         steps = len(prefix) + 1
         kept = [
             c for c in candidates
             if not (self.options.regressions == "skip" and c.regression) and not (self.options.below_tau == "skip" and not self.ok(c.plan, steps))
         ]
-        if self.options.revisits != "allow" and (self.options.revisits == "skip" or any(not c.revisit for c in kept)):
-            kept = [c for c in kept if not c.revisit]
-        return sorted(kept, key=lambda c: -c.score)
+        if self.options.revisits == "allow":
+            return sorted(kept, key=lambda c: -c.score)
+        fresh = [c for c in kept if not c.revisit]
+        if not fresh and self.options.revisits == "last":
+            fresh = [c for c in kept if places_box(c.call)]
+        return sorted(fresh, key=lambda c: -c.score)
 
     def record_step(self, prefix: list[SkillCall], candidates: list[Candidate], chosen: Candidate | None, terminal: bool) -> None:
         self.emit(
@@ -299,6 +304,14 @@ class LookaheadPlanner:
             if len(prefix) + 1 < d_max:  # at the last step no other candidate reached the goal: none to resume
                 alternatives.append((prefix, prefix_plan, ranked))
             prefix, prefix_plan = prefix + [best.call], best.plan
+
+
+def places_box(call: SkillCall) -> bool:
+    """Whether ``call`` puts a box down. Where it lands was chosen for the prefix alone, so such a
+    revisit may be the step a longer plan needs (a box put aside, out of a later sweep), while a
+    revisit of the hook's pick or placement repeats by construction (a situation leaves the hook's
+    pose out), and a pull or pick that leaves every zone as it was moves nothing a goal needs."""
+    return call.name == "place" and object_spec(call.args[0]).kind is ObjectKind.BOX
 
 
 def resume(

@@ -41,8 +41,8 @@ class LookaheadOptions(PlannerOptions):
     revisits: Revisits = Field(
         "allow",
         description="greedy candidates whose predicted situation repeats one already on the planned path: chosen "
-        "like any other (allow, paper), never chosen (skip), or chosen only at a step where no other candidate can "
-        "be (last)",
+        "like any other (allow, paper), never chosen (skip), or, when one puts a box down, chosen only at a step where "
+        "no other candidate can be (last; other revisits never are)",
     )
     below_tau: AllowOrSkip = Field(
         "allow",

@@ -110,20 +110,30 @@ def test_skipping_revisits_never_returns_to_a_planned_situation(drift: float) ->
     assert chosen_third("last") == "pick(red_box)"  # another candidate is left: the revisit waits
 
 
-def test_a_revisit_last_is_chosen_when_no_other_candidate_is_left() -> None:
-    model = RuleModel(next_skills=["['pick(blue_box)']", "['place(blue_box, rack)']", "['pick(blue_box)']"])
-    events: list = []
-    result = LookaheadPlanner(LookaheadOptions(max_depth=3, revisits="last"), "greedy-search").plan(context(model, SymbolicFeasibility(), events))
-    assert [str(c) for c in result.skeleton] == ["pick(blue_box)", "place(blue_box, rack)", "pick(blue_box)"]
-    assert not result.found and "within 3 skills" in result.failure  # it went on to d_max instead of stopping at step 3
-    last = [e for e in events if e["event"] == "greedy_step"][-1]
-    assert [(c["skill"], c["revisit"], c["chosen"]) for c in last["candidates"]] == [("pick(blue_box)", True, True)]
+def test_a_box_put_back_is_chosen_last_when_no_other_candidate_is_left() -> None:
+    # putting the blue box back on the table repeats the start situation: skip ends the search there,
+    # last appends it (where a box lands was planned for the prefix alone) and goes on to d_max
+    def searched(revisits: str) -> tuple[list[str], str, list]:
+        model = RuleModel(next_skills=["['pick(blue_box)']", "['place(blue_box, table)']", "['pick(red_box)']"])
+        events: list = []
+        result = LookaheadPlanner(LookaheadOptions(max_depth=3, revisits=revisits), "greedy-search").plan(context(model, SymbolicFeasibility(), events))
+        steps = [e for e in events if e["event"] == "greedy_step"]
+        return [str(c) for c in result.skeleton], result.failure, [(c["skill"], c["revisit"], c["chosen"]) for c in steps[1]["candidates"]]
+
+    skeleton, failure, second = searched("skip")
+    assert skeleton == ["pick(blue_box)"] and "already on the plan" in failure
+    assert second == [("place(blue_box, table)", True, False)]
+    skeleton, failure, second = searched("last")
+    assert skeleton == ["pick(blue_box)", "place(blue_box, table)", "pick(red_box)"] and "within 3 skills" in failure
+    assert second == [("place(blue_box, table)", True, True)]
 
 
-def test_skipping_revisits_fails_early_when_every_candidate_revisits() -> None:
+@pytest.mark.parametrize("revisits", ["skip", "last"])
+def test_skipping_revisits_fails_early_when_every_candidate_revisits(revisits: str) -> None:
+    # taking the box off the rack again is a pick: last never appends it either
     model = RuleModel(next_skills=["['pick(blue_box)']", "['place(blue_box, rack)']", "['pick(blue_box)']"])
     events: list = []
-    result = LookaheadPlanner(LookaheadOptions(revisits="skip"), "greedy-search").plan(context(model, SymbolicFeasibility(), events))
+    result = LookaheadPlanner(LookaheadOptions(revisits=revisits), "greedy-search").plan(context(model, SymbolicFeasibility(), events))
     assert not result.found and "already on the plan" in result.failure and len(result.skeleton) == 2
     last = [e for e in events if e["event"] == "greedy_step"][-1]
     assert [(c["skill"], c["revisit"], c["chosen"]) for c in last["candidates"]] == [("pick(blue_box)", True, False)]
