@@ -97,7 +97,7 @@ class HybridOptions(LookaheadOptions):
     only from the empty prefix (docs/guide/deviations.md#one-shooting-query-per-episode)."""
 
     proposals: Literal["generated", "grounded"] = _with_default("proposals", "grounded")  # type: ignore[assignment]
-    revisits: Revisits = _with_default("revisits", "skip")  # type: ignore[assignment]
+    revisits: Revisits = _with_default("revisits", "last")  # type: ignore[assignment]
     below_tau: AllowOrSkip = _with_default("below_tau", "skip")  # type: ignore[assignment]
     backtracks: int = _with_default("backtracks", 5)  # type: ignore[assignment]
     regressions: AllowOrSkip = _with_default("regressions", "skip")  # type: ignore[assignment]
