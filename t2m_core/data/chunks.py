@@ -26,7 +26,14 @@ from t2m_core.data.records import (
     failure_code,
     name_indices,
 )
-from t2m_core.data.rollouts import parse_rollout_tasks, rollout_skeleton, rollout_tasks, shipped_tasks, task_rollout_rows
+from t2m_core.data.rollouts import (
+    parse_rollout_tasks,
+    rollout_planner_identity,
+    rollout_skeleton,
+    rollout_tasks,
+    shipped_tasks,
+    task_rollout_rows,
+)
 from t2m_core.data.scenes import DATA_SKILLS, DataTask, draw_data_task
 from t2m_core.domain.geometry import quat_multiply, rotate, yaw_to_quat
 from t2m_core.domain.observation import MAX_OBJECTS, argument_first_order, encode_observation
@@ -199,6 +206,8 @@ class ChunkSpec:
             header["scenes"] = self.scenes
         if self.skeleton is not None:
             header["skeleton"] = self.skeleton
+        if self.simulated and self.sampler == "planned":
+            header["planner"] = rollout_planner_identity()
         return header
 
 

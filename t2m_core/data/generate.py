@@ -121,6 +121,10 @@ class DatasetJob:
             settings["proposal"] = self.proposal.identity()
         if simulated and self.skeleton is not None:
             settings["skeleton"] = self.skeleton
+        if simulated and self.sampler == "planned":
+            from t2m_core.data.rollouts import rollout_planner_identity
+
+            settings["planner"] = rollout_planner_identity()
         return settings
 
     def shard_header(self, spec: ChunkSpec) -> dict[str, Any]:

@@ -184,6 +184,15 @@ def task_rollout_rows(
             return
 
 
+def rollout_planner_identity() -> dict[str, Any]:
+    """What a ``planned`` dataset records of its planner: :data:`ROLLOUT_PLANNER` and its default
+    options (a change of either makes other data, so a split made with one is never extended with
+    the other)."""
+    from t2m_core.registry import get_registry
+
+    return {"name": ROLLOUT_PLANNER, "options": get_registry().get("feasibility_planner", ROLLOUT_PLANNER).options().model_dump(mode="json")}
+
+
 @lru_cache(maxsize=1)
 def rollout_planner() -> Any:
     """The :data:`ROLLOUT_PLANNER` feasibility planner, built once per process."""

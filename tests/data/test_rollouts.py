@@ -161,6 +161,9 @@ def test_a_planned_rollout_executes_the_feasibility_planners_action_then_noisy_o
     spec = ChunkSpec("pick", "train", 0, 3, sampler="planned", actions_per_scene=3, proposal=shipped, scenes="tasks:task2", skeleton=order)
     rows, _ = generate_chunk(spec, get_registry().create("simulator", "mujoco"))
     assert spec.header()["sampler"] == "planned"
+    # what the data depend on is recorded: the planner and its options (500 samples, docs/guide/feasibility.md)
+    planner = spec.header()["planner"]
+    assert planner["name"] == "policy-cem" and planner["options"]["population"] == 500 and planner["options"]["sigma"] == 0.3
     assert np.all(rows.scene_seed == rows.scene_seed[0])  # one scene: the pick is the skeleton's first call
     np.testing.assert_array_equal(rows.observation[1], rows.observation[0])
     # a run's planner, built apart from the data code, plans the same skeleton from the same state
