@@ -69,8 +69,6 @@ def datagen(
         raise T2MError(f"unknown scene source {scenes!r}", f"use one of: {', '.join(SCENES)}, or tasks:ID,ID")
     if scenes != "data" and sampler not in LIBRARY_SAMPLERS:
         raise T2MError("--scenes tasks advances along the skeletons with a skill library's proposals", "add --sampler proposal (or planned)")
-    if sampler == "planned" and scenes == "data":
-        raise T2MError("--sampler planned plans along task rollouts", "add --scenes tasks or tasks:ID")
     if proposal_checkpoints is not None and sampler not in LIBRARY_SAMPLERS:
         raise T2MError("--proposal-checkpoints is for the proposal and planned samplers", "add --sampler proposal, or drop --proposal-checkpoints")
     if skeleton is not None:
