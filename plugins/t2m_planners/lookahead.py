@@ -42,6 +42,20 @@ def truncated(plan: PlanResult, steps: int) -> PlanResult:
     )
 
 
+
+def continuations(prefix: Sequence[SkillCall], proposed: list[SkillCall]) -> list[list[SkillCall]]:
+    """The continuations of ``prefix`` a shooting answer ``proposed`` stands for.
+
+    A model often restarts its answer inside the planned prefix. When ``proposed`` begins with the
+    whole prefix, that repeat is dropped. When it begins with only the prefix's last skills (the
+    longest such overlap: ``pick(hook)`` planned, ``pick(hook), pull(...)`` proposed), both readings
+    are returned, the overlap dropped first: STAP and the product of values choose between them.
+    """
+    if prefix and proposed[: len(prefix)] == list(prefix):
+        return [proposed[len(prefix) :]]  # the model repeated the planned prefix
+    overlap = next((k for k in range(min(len(prefix), len(proposed)), 0, -1) if proposed[:k] == list(prefix[-k:])), 0)
+    return [proposed[overlap:], proposed] if overlap else [proposed]
+
 @dataclass
 class Candidate:
     """A scored next-skill candidate of a greedy step."""
@@ -143,10 +157,7 @@ class Search:
         self.llm_calls += len(attempts)
         found: list[tuple[float, list[SkillCall], PlanResult]] = []
         seen: set[tuple[SkillCall, ...]] = set()
-        for proposed in sequences:
-            continuation = list(proposed)
-            if prefix and continuation[: len(prefix)] == prefix:
-                continuation = continuation[len(prefix) :]  # the model repeated the planned prefix
+        for continuation in (c for proposed in sequences for c in continuations(prefix, list(proposed))):
             if not continuation or tuple(continuation) in seen:
                 continue
             seen.add(tuple(continuation))

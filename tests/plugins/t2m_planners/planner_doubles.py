@@ -15,13 +15,14 @@ from t2m_core.protocols import LanguageModelCapabilities, PlanResult
 
 
 class RuleModel:
-    """Answers shooting prompts with ``sequences``, next-skill prompts with ``next_skills`` (one list
-    per greedy step, the last repeated), and scores candidates from ``scores`` (default −5 nats)."""
+    """Answers shooting prompts with ``sequences`` (one answer, or one per query with the last
+    repeated), next-skill prompts with ``next_skills`` (one list per greedy step, the last repeated),
+    and scores candidates from ``scores`` (default −5 nats)."""
 
-    def __init__(self, sequences: str = "[]", next_skills: Sequence[str] = ("[]",), scores: Mapping[str, float] | None = None,
+    def __init__(self, sequences: str | Sequence[str] = "[]", next_skills: Sequence[str] = ("[]",), scores: Mapping[str, float] | None = None,
                  goal: str = "[]") -> None:
         self.goal = goal
-        self.sequences = sequences
+        self.sequences = [sequences] if isinstance(sequences, str) else list(sequences)
         self.next_skills = list(next_skills)
         self.scores = dict(scores or {})
         self.capabilities = LanguageModelCapabilities(exact_scoring=True, grammar=False)
@@ -30,7 +31,8 @@ class RuleModel:
     def complete(self, prompt, *, max_tokens=256, stop=(), temperature=0.0, n=1, grammar=None):
         if prompt.endswith(shooting_query()):
             self.requests.append("shooting")
-            return [self.sequences] * n
+            answer = self.sequences[0] if len(self.sequences) == 1 else self.sequences.pop(0)
+            return [answer] * n
         if prompt.endswith(next_skill_query()):
             self.requests.append("next")
             answer = self.next_skills[0] if len(self.next_skills) == 1 else self.next_skills.pop(0)

@@ -74,6 +74,22 @@ def test_hybrid_falls_back_to_a_greedy_step_then_shoots_again_from_the_prefix() 
     assert feasibility.calls[-1] == ["pick(red_box)", "place(red_box, rack)"]
 
 
+def test_a_shot_that_restarts_at_the_prefixs_last_skill_is_read_as_its_continuation() -> None:
+    # the third shot, from [pick(blue_box), place(blue_box, table)], begins with the prefix's last
+    # skill: read literally it places a box that is no longer held (0.05, below tau); read with the
+    # repeat dropped it reaches the goal
+    restart = "[['place(blue_box, table)', 'pick(red_box)', 'place(red_box, rack)']]"
+    model = RuleModel(sequences=["[['place(red_box, rack)']]", "[['place(red_box, rack)']]", restart],
+                      next_skills=["['pick(blue_box)']", "['place(blue_box, table)']"])
+    feasibility = SymbolicFeasibility()
+    result = check_task_planner(LookaheadPlanner(LookaheadOptions(), "hybrid"), context(model, feasibility))
+    assert model.requests.count("shooting") == 3
+    assert [str(c) for c in result.skeleton] == ["pick(blue_box)", "place(blue_box, table)", "pick(red_box)", "place(red_box, rack)"]
+    assert result.plan.p_success == pytest.approx(0.9**4)
+    literal = ["pick(blue_box)", "place(blue_box, table)", "place(blue_box, table)", "pick(red_box)", "place(red_box, rack)"]
+    assert literal in feasibility.calls  # both readings were planned
+
+
 def test_hybrid_without_reshooting_lets_the_greedy_steps_finish_the_plan() -> None:
     model = RuleModel(sequences="[['place(red_box, rack)']]", next_skills=["['pick(red_box)']", "['place(red_box, rack)']"],
                       scores={"pick(red_box)": -1.0, "place(red_box, rack)": -1.0})
