@@ -42,7 +42,6 @@ def truncated(plan: PlanResult, steps: int) -> PlanResult:
     )
 
 
-
 def continuations(prefix: Sequence[SkillCall], proposed: list[SkillCall]) -> list[list[SkillCall]]:
     """The continuations of ``prefix`` a shooting answer ``proposed`` stands for.
 
@@ -55,6 +54,7 @@ def continuations(prefix: Sequence[SkillCall], proposed: list[SkillCall]) -> lis
         return [proposed[len(prefix) :]]  # the model repeated the planned prefix
     overlap = next((k for k in range(min(len(prefix), len(proposed)), 0, -1) if proposed[:k] == list(prefix[-k:])), 0)
     return [proposed[overlap:], proposed] if overlap else [proposed]
+
 
 @dataclass
 class Candidate:
