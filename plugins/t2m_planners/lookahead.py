@@ -50,10 +50,10 @@ def continuations(prefix: Sequence[SkillCall], proposed: list[SkillCall]) -> lis
     longest such overlap: ``pick(hook)`` planned, ``pick(hook), pull(...)`` proposed), both readings
     are returned, the overlap dropped first: STAP and the product of values choose between them.
     """
-    if prefix and proposed[: len(prefix)] == list(prefix):
-        return [proposed[len(prefix) :]]  # the model repeated the planned prefix
     overlap = next((k for k in range(min(len(prefix), len(proposed)), 0, -1) if proposed[:k] == list(prefix[-k:])), 0)
-    return [proposed[overlap:], proposed] if overlap else [proposed]
+    if not overlap:
+        return [proposed]
+    return [proposed[overlap:]] if overlap == len(prefix) else [proposed[overlap:], proposed]
 
 
 @dataclass

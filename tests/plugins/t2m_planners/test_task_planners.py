@@ -9,11 +9,12 @@ import pytest
 from t2m_core.domain.goals import parse_goal
 from t2m_core.domain.observation import encode_observation
 from t2m_core.domain.sampling import sample_initial_state
+from t2m_core.domain.skills import parse_skill_call
 from t2m_core.language.scene_description import describe_state
 from t2m_core.language.session import LanguageSession
 from t2m_core.protocols import PlanningContext
 from t2m_core.testing import check_task_planner
-from t2m_planners.lookahead import LookaheadPlanner
+from t2m_planners.lookahead import LookaheadPlanner, continuations
 from t2m_planners.options import HybridOptions, LookaheadOptions
 from tests.plugins.t2m_planners.planner_doubles import RuleModel, SymbolicFeasibility
 
@@ -72,6 +73,15 @@ def test_hybrid_falls_back_to_a_greedy_step_then_shoots_again_from_the_prefix() 
     assert model.requests[:3] == ["shooting", "next", "score"]
     assert [str(c) for c in result.skeleton] == ["pick(red_box)", "place(red_box, rack)"]
     assert feasibility.calls[-1] == ["pick(red_box)", "place(red_box, rack)"]
+
+
+def test_a_shots_repeat_of_the_prefix_is_dropped_and_a_partial_one_read_both_ways() -> None:
+    pick_red, place_red, pick_hook, pull_blue = (parse_skill_call(t) for t in ("pick(red_box)", "place(red_box, rack)", "pick(hook)", "pull(blue_box, hook)"))
+    prefix = [pick_red, place_red, pick_hook]
+    assert continuations(prefix, [pick_red, place_red, pick_hook, pull_blue]) == [[pull_blue]]  # the whole prefix again
+    assert continuations(prefix, [pick_hook, pull_blue]) == [[pull_blue], [pick_hook, pull_blue]]  # its last skill again
+    assert continuations(prefix, [place_red, pick_hook, pull_blue]) == [[pull_blue], [place_red, pick_hook, pull_blue]]
+    assert continuations(prefix, [pull_blue]) == [[pull_blue]] and continuations([], [pick_hook]) == [[pick_hook]]
 
 
 def test_a_shot_that_restarts_at_the_prefixs_last_skill_is_read_as_its_continuation() -> None:
