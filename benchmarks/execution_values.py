@@ -1,0 +1,126 @@
+"""How well the learned values predicted what the simulator then did, read from run directories.
+
+    python benchmarks/execution_values.py EVAL_OR_RUN_DIR [...] [--json OUT]
+
+Every executed skill of a run record carries the min-of-8 value that its closed-loop re-plan gave it
+just before it ran (``plan_tree.jsonl``, event ``executed``) and the simulator's outcome. Per skill,
+over every executed step of the given directories (evaluation directories written by ``t2m eval`` or
+single run directories): the steps, the failures and their reasons, the mean value of the steps that
+succeeded and of those that failed, and the area under the ROC curve of the value against the outcome
+(0.5: the value says nothing about which steps fail; 1: every failure was valued below every success).
+Per episode: the accepted plan's ``p_success`` in bins against the fraction of those episodes that
+reached the goal. An episode directory counts once even when two given directories hold it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+from action_ranking import roc_auc
+
+from t2m_core.run_records import read_plan_tree, read_result
+
+P_SUCCESS_BINS = (0.0, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0)
+"""Edges of the accepted plans' ``p_success`` bins (the last bin includes 1)."""
+
+
+def episode_directories(paths: list[Path]) -> list[Path]:
+    """Run directories (holding ``result.json``) at or below ``paths``, each once, sorted."""
+    found = set()
+    for path in paths:
+        if (path / "result.json").exists():
+            found.add(path.resolve())
+        found.update(result.parent.resolve() for result in path.glob("**/result.json"))
+    return sorted(found)
+
+
+def collect(directories: list[Path]) -> tuple[dict[str, list[tuple[float, bool, str | None]]], list[tuple[float, bool]]]:
+    """Per skill name: ``(value, succeeded, failure)`` of every executed step; per episode with an
+    accepted plan: ``(p_success, reached the goal)``."""
+    steps: dict[str, list[tuple[float, bool, str | None]]] = {}
+    episodes: list[tuple[float, bool]] = []
+    for directory in directories:
+        result = read_result(directory)
+        if result is None:
+            continue
+        records = read_plan_tree(directory)
+        for record in records:
+            if record["event"] == "executed":
+                skill = record["skill"].split("(", 1)[0]
+                steps.setdefault(skill, []).append((float(record["value"]), bool(record["success"]), record.get("failure")))
+        plans = [r for r in records if r["event"] == "plan" and r.get("found")]
+        if plans:
+            episodes.append((float(plans[-1]["p_success"]), bool(result.get("success"))))
+    return steps, episodes
+
+
+def skill_table(steps: dict[str, list[tuple[float, bool, str | None]]]) -> list[dict]:
+    """One row per skill: counts, mean values by outcome, AUC, failure reasons."""
+    rows = []
+    for skill in sorted(steps):
+        values = np.array([s[0] for s in steps[skill]])
+        success = np.array([s[1] for s in steps[skill]])
+        rows.append({
+            "skill": skill,
+            "steps": int(len(values)),
+            "failures": int((~success).sum()),
+            "mean_value_success": float(values[success].mean()) if success.any() else None,
+            "mean_value_failure": float(values[~success].mean()) if (~success).any() else None,
+            "auc": roc_auc(values, success),
+            "failure_reasons": dict(Counter(s[2] for s in steps[skill] if not s[1]).most_common()),
+        })
+    return rows
+
+
+def reliability(episodes: list[tuple[float, bool]]) -> list[dict]:
+    """Accepted plans binned by ``p_success``: episodes, mean predicted, fraction reaching the goal."""
+    rows = []
+    edges = P_SUCCESS_BINS
+    for low, high in zip(edges[:-1], edges[1:]):
+        inside = [e for e in episodes if low <= e[0] < high or (high == edges[-1] and e[0] == high)]
+        if inside:
+            rows.append({
+                "p_success_bin": [low, high], "episodes": len(inside),
+                "mean_p_success": float(np.mean([e[0] for e in inside])),
+                "reached": float(np.mean([e[1] for e in inside])),
+            })
+    return rows
+
+
+def _fmt(value: float | None, form: str = ".2f") -> str:
+    return "n/a" if value is None else format(value, form)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("directories", nargs="+", type=Path, help="evaluation or run directories")
+    parser.add_argument("--json", dest="json_out", default=None)
+    args = parser.parse_args()
+    directories = episode_directories(args.directories)
+    if not directories:
+        sys.exit(f"no run directory (with a result.json) at or below {', '.join(map(str, args.directories))}: "
+                 "give directories written by `t2m run` or `t2m eval`")
+    steps, episodes = collect(directories)
+    skills, bins = skill_table(steps), reliability(episodes)
+    print(f"{len(directories)} episodes, {sum(len(v) for v in steps.values())} executed steps")
+    print(f"{'skill':6s} {'steps':>6s} {'failed':>6s} {'value ok':>9s} {'value fail':>10s} {'AUC':>6s}  failure reasons")
+    for row in skills:
+        print(f"{row['skill']:6s} {row['steps']:6d} {row['failures']:6d} {_fmt(row['mean_value_success']):>9s} "
+              f"{_fmt(row['mean_value_failure']):>10s} {_fmt(row['auc'], '.3f'):>6s}  {row['failure_reasons']}")
+    print(f"\n{'accepted p_success':>20s} {'episodes':>9s} {'mean':>6s} {'reached':>8s}")
+    for row in bins:
+        low, high = row["p_success_bin"]
+        print(f"{f'[{low}, {high})':>20s} {row['episodes']:9d} {row['mean_p_success']:6.2f} {row['reached']:8.0%}")
+    if args.json_out:
+        report = {"directories": [str(p) for p in args.directories], "episodes": len(directories), "skills": skills,
+                  "p_success_reliability": bins}
+        Path(args.json_out).write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+
+
+if __name__ == "__main__":
+    main()
