@@ -15,7 +15,6 @@ reached the goal. An episode directory counts once even when two given directori
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from collections import Counter
 from pathlib import Path
@@ -23,6 +22,8 @@ from pathlib import Path
 import numpy as np
 from action_ranking import roc_auc
 
+from t2m_core.atomic_files import write_json_atomic
+from t2m_core.errors import T2MError
 from t2m_core.run_records import read_plan_tree, read_result
 
 P_SUCCESS_BINS = (0.0, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0)
@@ -105,7 +106,10 @@ def main() -> None:
     if not directories:
         sys.exit(f"no run directory (with a result.json) at or below {', '.join(map(str, args.directories))}: "
                  "give directories written by `t2m run` or `t2m eval`")
-    steps, episodes = collect(directories)
+    try:
+        steps, episodes = collect(directories)
+    except T2MError as error:
+        sys.exit(f"{error.message}: {error.hint}" if error.hint else error.message)
     skills, bins = skill_table(steps), reliability(episodes)
     print(f"{len(directories)} episodes, {sum(len(v) for v in steps.values())} executed steps")
     print(f"{'skill':6s} {'steps':>6s} {'failed':>6s} {'value ok':>9s} {'value fail':>10s} {'AUC':>6s}  failure reasons")
@@ -119,7 +123,7 @@ def main() -> None:
     if args.json_out:
         report = {"directories": [str(p) for p in args.directories], "episodes": len(directories), "skills": skills,
                   "p_success_reliability": bins}
-        Path(args.json_out).write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+        write_json_atomic(args.json_out, report)
 
 
 if __name__ == "__main__":
