@@ -28,6 +28,8 @@ from t2m_core.run_records import read_plan_tree, read_result
 
 P_SUCCESS_BINS = (0.0, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0)
 """Edges of the accepted plans' ``p_success`` bins (the last bin includes 1)."""
+Step = tuple[float, bool, str | None]
+"""One executed step: its value, whether it succeeded, the failure reason."""
 
 
 def episode_directories(paths: list[Path]) -> list[Path]:
@@ -40,10 +42,10 @@ def episode_directories(paths: list[Path]) -> list[Path]:
     return sorted(found)
 
 
-def collect(directories: list[Path]) -> tuple[dict[str, list[tuple[float, bool, str | None]]], list[tuple[float, bool]]]:
+def collect(directories: list[Path]) -> tuple[dict[str, list[Step]], list[tuple[float, bool]]]:
     """Per skill name: ``(value, succeeded, failure)`` of every executed step; per episode with an
     accepted plan: ``(p_success, reached the goal)``."""
-    steps: dict[str, list[tuple[float, bool, str | None]]] = {}
+    steps: dict[str, list[Step]] = {}
     episodes: list[tuple[float, bool]] = []
     for directory in directories:
         result = read_result(directory)
@@ -53,14 +55,15 @@ def collect(directories: list[Path]) -> tuple[dict[str, list[tuple[float, bool, 
         for record in records:
             if record["event"] == "executed":
                 skill = record["skill"].split("(", 1)[0]
-                steps.setdefault(skill, []).append((float(record["value"]), bool(record["success"]), record.get("failure")))
+                step = (float(record["value"]), bool(record["success"]), record.get("failure"))
+                steps.setdefault(skill, []).append(step)
         plans = [r for r in records if r["event"] == "plan" and r.get("found")]
         if plans:
             episodes.append((float(plans[-1]["p_success"]), bool(result.get("success"))))
     return steps, episodes
 
 
-def skill_table(steps: dict[str, list[tuple[float, bool, str | None]]]) -> list[dict]:
+def skill_table(steps: dict[str, list[Step]]) -> list[dict]:
     """One row per skill: counts, mean values by outcome, AUC, failure reasons."""
     rows = []
     for skill in sorted(steps):
@@ -112,7 +115,7 @@ def main() -> None:
         sys.exit(f"{error.message}: {error.hint}" if error.hint else error.message)
     skills, bins = skill_table(steps), reliability(episodes)
     print(f"{len(directories)} episodes, {sum(len(v) for v in steps.values())} executed steps")
-    print(f"{'skill':6s} {'steps':>6s} {'failed':>6s} {'value ok':>9s} {'value fail':>10s} {'AUC':>6s}  failure reasons")
+    print(f"{'skill':6s} {'steps':>6s} {'failed':>6s} {'value ok':>9s} {'value fail':>10s} {'AUC':>6s}  failures")
     for row in skills:
         print(f"{row['skill']:6s} {row['steps']:6d} {row['failures']:6d} {_fmt(row['mean_value_success']):>9s} "
               f"{_fmt(row['mean_value_failure']):>10s} {_fmt(row['auc'], '.3f'):>6s}  {row['failure_reasons']}")
