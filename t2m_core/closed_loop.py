@@ -36,11 +36,12 @@ class ExecutedStep:
     execute_seconds: float
 
     def summary(self) -> dict[str, Any]:
-        """JSON-ready: the step's action, values, OOD flags, p_success and outcome."""
+        """JSON-ready: the step's action (at full precision, so that replaying the recorded actions in
+        the recorded scene reproduces the physics), values, OOD flags, p_success and outcome."""
         members = self.plan.q_members
         return {
             "skill": str(self.call),
-            "action": [round(float(a), 4) for a in self.action],
+            "action": [float(a) for a in self.action],
             "value": float(self.plan.values[0]),
             "q_members": [round(float(q), 4) for q in members[0]] if members is not None and len(members) else None,
             "ood": bool(self.plan.ood[0]),

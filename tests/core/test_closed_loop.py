@@ -46,6 +46,16 @@ def test_every_skill_is_planned_again_from_scratch_by_default() -> None:
     assert [float(s.action[0]) for s in result.steps] == pytest.approx([0.1, 0.2, 0.3])
 
 
+def test_the_recorded_action_is_the_executed_one_bit_for_bit() -> None:
+    executed = []
+    sim = simulator(success=lambda action: executed.append(np.array(action)) or True)
+    result = execute_closed_loop(sim, RecordingPlanner(), {}, SKELETON, sim.objects)
+    recorded = [np.asarray(step.summary()["action"], np.float64) for step in result.steps]
+    # 0.1 + step / 100 in float32 has more digits than four decimals keep
+    assert all(np.array_equal(r, e) for r, e in zip(recorded, executed, strict=True)) and len(recorded) == 3
+    assert any(not np.array_equal(r, np.round(r, 4)) for r in recorded)
+
+
 def test_planned_starts_take_the_accepted_plan_then_each_plans_remaining_actions() -> None:
     planner = RecordingPlanner()
     sim = simulator()
