@@ -24,8 +24,9 @@ class ExecutedStep:
 
     Attributes:
         call: the skill. plan: the plan of the remaining skeleton made just before it (its first
-        step is this skill). action: ``(4,)`` the executed action. result: what the simulator did.
-        plan_seconds, execute_seconds: wall time of planning and of simulating it.
+        step is this skill). action: ``(4,)`` the executed action, as the simulator received it
+        (clipped to [-1, 1]). result: what the simulator did. plan_seconds, execute_seconds: wall
+        time of planning and of simulating it.
     """
 
     call: SkillCall
@@ -105,8 +106,8 @@ def execute_closed_loop(
             plan, offset = first_plan, index
         first_plan = first_plan or plan
         planned = time.perf_counter()
-        action = np.asarray(plan.actions[offset], dtype=np.float64)
-        result = simulator.execute(call.name, call.args, np.clip(action, -1.0, 1.0))
+        action = np.clip(np.asarray(plan.actions[offset], dtype=np.float64), -1.0, 1.0)
+        result = simulator.execute(call.name, call.args, action)
         step = ExecutedStep(call, _from_step(plan, offset), action, result, planned - started, time.perf_counter() - planned)
         outcome.steps.append(step)
         if on_step is not None:

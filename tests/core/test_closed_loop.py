@@ -51,7 +51,7 @@ def test_the_recorded_action_is_the_executed_one_bit_for_bit() -> None:
     sim = simulator(success=lambda action: executed.append(np.array(action)) or True)
     result = execute_closed_loop(sim, RecordingPlanner(), {}, SKELETON, sim.objects)
     recorded = [np.asarray(step.summary()["action"], np.float64) for step in result.steps]
-    # 0.1 + step / 100 in float32 has more digits than four decimals keep
+    # the planned actions are float32 (0.1 is 0.10000000149...): more digits than four decimals keep
     assert all(np.array_equal(r, e) for r, e in zip(recorded, executed, strict=True)) and len(recorded) == 3
     assert any(not np.array_equal(r, np.round(r, 4)) for r in recorded)
 
