@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 from action_ranking import roc_auc
+from t2m_skills_tableenv.report import reliability
 
 from t2m_core.atomic_files import write_json_atomic
 from t2m_core.errors import T2MError
@@ -36,9 +37,7 @@ def episode_directories(paths: list[Path]) -> list[Path]:
     """Run directories (holding ``result.json``) at or below ``paths``, each once, sorted."""
     found = set()
     for path in paths:
-        if (path / "result.json").exists():
-            found.add(path.resolve())
-        found.update(result.parent.resolve() for result in path.glob("**/result.json"))
+        found.update(result.parent.resolve() for result in path.glob("**/result.json"))  # ** matches path itself too
     return sorted(found)
 
 
@@ -81,21 +80,6 @@ def skill_table(steps: dict[str, list[Step]]) -> list[dict]:
     return rows
 
 
-def reliability(episodes: list[tuple[float, bool]]) -> list[dict]:
-    """Accepted plans binned by ``p_success``: episodes, mean predicted, fraction reaching the goal."""
-    rows = []
-    edges = P_SUCCESS_BINS
-    for low, high in zip(edges[:-1], edges[1:]):
-        inside = [e for e in episodes if low <= e[0] < high or (high == edges[-1] and e[0] == high)]
-        if inside:
-            rows.append({
-                "p_success_bin": [low, high], "episodes": len(inside),
-                "mean_p_success": float(np.mean([e[0] for e in inside])),
-                "reached": float(np.mean([e[1] for e in inside])),
-            })
-    return rows
-
-
 def _fmt(value: float | None, form: str = ".2f") -> str:
     return "n/a" if value is None else format(value, form)
 
@@ -113,7 +97,9 @@ def main() -> None:
         steps, episodes = collect(directories)
     except T2MError as error:
         sys.exit(f"{error.message}: {error.hint}" if error.hint else error.message)
-    skills, bins = skill_table(steps), reliability(episodes)
+    predicted = np.array([e[0] for e in episodes])
+    reached = np.array([e[1] for e in episodes], dtype=bool)
+    skills, bins = skill_table(steps), reliability(predicted, reached, P_SUCCESS_BINS)
     print(f"{len(directories)} episodes, {sum(len(v) for v in steps.values())} executed steps")
     print(f"{'skill':6s} {'steps':>6s} {'failed':>6s} {'value ok':>9s} {'value fail':>10s} {'AUC':>6s}  failures")
     for row in skills:
@@ -121,8 +107,7 @@ def main() -> None:
               f"{_fmt(row['mean_value_failure']):>10s} {_fmt(row['auc'], '.3f'):>6s}  {row['failure_reasons']}")
     print(f"\n{'accepted p_success':>20s} {'episodes':>9s} {'mean':>6s} {'reached':>8s}")
     for row in bins:
-        low, high = row["p_success_bin"]
-        print(f"{f'[{low}, {high})':>20s} {row['episodes']:9d} {row['mean_p_success']:6.2f} {row['reached']:8.0%}")
+        print(f"{'from ' + str(row['bin_low']):>20s} {row['count']:9d} {row['predicted']:6.2f} {row['realised']:8.0%}")
     if args.json_out:
         report = {"directories": [str(p) for p in args.directories], "episodes": len(directories), "skills": skills,
                   "p_success_reliability": bins}

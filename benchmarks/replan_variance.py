@@ -68,8 +68,7 @@ def replan_failed_step(run: Path, seeds: int) -> dict[str, Any]:
     rows = []
     for seed in range(seeds):
         planner = get_registry().create("feasibility_planner", planner_block.name, {**planner_block.options, "seed": seed})
-        plan = planner.plan(simulator.observation(), remaining, skills, names)
-        simulator.set_state(snapshot)
+        plan = planner.plan(simulator.observation(), remaining, skills, names)  # planning leaves the simulator as it is
         action = np.clip(np.asarray(plan.actions[0], dtype=np.float64), -1.0, 1.0)
         outcome = simulator.execute(remaining[0].name, remaining[0].args, action)
         simulator.set_state(snapshot)

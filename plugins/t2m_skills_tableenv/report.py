@@ -31,14 +31,16 @@ from t2m_skills_tableenv.training import q_metrics
 RELIABILITY_BINS = np.linspace(0.0, 1.0, 11)
 
 
-def reliability(predicted: np.ndarray, success: np.ndarray) -> list[dict[str, float]]:
-    """Per bin of predicted probability: count, mean prediction, realised success rate."""
-    bins = np.clip(np.digitize(predicted, RELIABILITY_BINS) - 1, 0, len(RELIABILITY_BINS) - 2)
+def reliability(predicted: np.ndarray, success: np.ndarray, edges: Sequence[float] = RELIABILITY_BINS) -> list[dict[str, float]]:
+    """Per bin of predicted probability (``edges``; the last bin includes its upper edge): count,
+    mean prediction, realised success rate. Empty bins are left out."""
+    edges = np.asarray(edges, dtype=np.float64)
+    bins = np.clip(np.digitize(predicted, edges) - 1, 0, len(edges) - 2)
     rows = []
-    for b in range(len(RELIABILITY_BINS) - 1):
+    for b in range(len(edges) - 1):
         mask = bins == b
         if mask.any():
-            rows.append({"bin_low": round(float(RELIABILITY_BINS[b]), 2), "count": int(mask.sum()), "predicted": float(predicted[mask].mean()), "realised": float(success[mask].mean())})
+            rows.append({"bin_low": round(float(edges[b]), 2), "count": int(mask.sum()), "predicted": float(predicted[mask].mean()), "realised": float(success[mask].mean())})
     return rows
 
 
