@@ -2,6 +2,8 @@
 
 Frames go to a temporary file next to the destination, which replaces the destination only when
 the video is complete (``os.replace``), so an interrupted run never leaves a broken ``video.mp4``.
+A run killed outright (``SIGKILL``) cannot remove its temporary file; the next writer for the same
+destination does.
 """
 
 from __future__ import annotations
@@ -41,6 +43,8 @@ class VideoWriter:
         self.frames_written = 0
         self._writer = None
         self._size: tuple[int, int] | None = None
+        for stale in self.path.parent.glob(f".{self.path.stem}-*.mp4"):  # left by a killed writer
+            stale.unlink(missing_ok=True)
         handle, temporary = tempfile.mkstemp(prefix=f".{self.path.stem}-", suffix=".mp4", dir=self.path.parent)
         os.close(handle)
         self._temporary = Path(temporary)
