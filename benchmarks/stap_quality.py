@@ -1,7 +1,8 @@
 """Feasibility planning against the physics: each task's reference skeleton executed closed loop.
 
     python benchmarks/stap_quality.py --json OUT [--planners policy-cem,policy,random-cem] [--tasks all]
-        [--seeds 0-9] [--population N] [--checkpoints DIR] [--workers N] [--replan-start policy|planned]
+        [--seeds 0-9] [--population N] [--option KEY=VALUE ...] [--checkpoints DIR] [--workers N]
+        [--replan-start policy|planned]
         [--skeleton "pick(hook), push(cyan_box, hook, rack)" --tasks ID]
 
 For every planner, task and seed: reset MuJoCo to the task's scene (base seed = index × 1000), plan
@@ -21,6 +22,7 @@ import functools
 import time
 
 import numpy as np
+import yaml
 
 
 def main() -> None:
@@ -30,6 +32,8 @@ def main() -> None:
     parser.add_argument("--tasks", default="all")
     parser.add_argument("--seeds", default="0-9", help="seed indices: 0-9 or 0,3,5 (base seed = index x 1000)")
     parser.add_argument("--population", type=int, default=None, help="override the CEM/shooting population")
+    parser.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
+                        help="a feasibility-planner option for every planner but policy (e.g. restarts=3); repeatable")
     parser.add_argument("--sim", default="mujoco")
     parser.add_argument("--checkpoints", default=None, help="skill checkpoints directory (default: the shipped ones)")
     parser.add_argument("--plot", default=None, help="write a reliability plot (PNG) of predicted p_success against success")
@@ -54,6 +58,14 @@ def main() -> None:
     except T2MError as error:
         parser.error(f"{error.message} ({error.hint})")
     planner_names = args.planners.split(",")
+    options = {}
+    for item in args.option:
+        key, separator, value = item.partition("=")
+        if not separator or not key:
+            parser.error(f"--option {item!r}: give KEY=VALUE, e.g. restarts=3")
+        options[key] = yaml.safe_load(value)
+    if args.population:
+        options["population"] = args.population
     if args.skeleton is not None:
         from t2m_core.data.rollouts import rollout_skeleton
         from t2m_core.tasks import load_task
@@ -65,13 +77,13 @@ def main() -> None:
         except T2MError as error:
             parser.error(f"--skeleton: {error.message} ({error.hint})")
     jobs = [(planner_name, task_id, seed) for planner_name in planner_names for task_id in tasks for seed in seeds]
-    run = functools.partial(_run_episode, sim=args.sim, checkpoints=args.checkpoints, population=args.population,
+    run = functools.partial(_run_episode, sim=args.sim, checkpoints=args.checkpoints, options=options,
                             replan_start=args.replan_start, skeleton=args.skeleton)
     with make_executor("local", workers=args.workers) as pool:
         finished = dict(pool.map(run, jobs))
     if "simulator" in _PROCESS_PARTS:  # one worker: the episodes ran in this process
         _PROCESS_PARTS["simulator"].close()
-    report: dict = {"simulator": args.sim, "checkpoints": args.checkpoints or "shipped", "replan_start": args.replan_start,
+    report: dict = {"simulator": args.sim, "checkpoints": args.checkpoints or "shipped", "options": options, "replan_start": args.replan_start,
                     "skeleton": args.skeleton, "tau": args.tau, "planners": {}}
     for planner_name in planner_names:
         episodes = [finished[job] for job in jobs if job[0] == planner_name]
@@ -95,7 +107,7 @@ _PROCESS_PARTS: dict = {}
 """This process's simulator, skill library and planners, made by its first episode and kept for the rest."""
 
 
-def _run_episode(job: tuple[str, str, int], *, sim: str, checkpoints: str | None, population: int | None, replan_start: str,
+def _run_episode(job: tuple[str, str, int], *, sim: str, checkpoints: str | None, options: dict, replan_start: str,
                  skeleton: str | None = None) -> dict:
     """One (planner, task, seed index) episode: reset, plan and execute the reference skeleton (or
     ``skeleton``) closed loop."""
@@ -112,8 +124,7 @@ def _run_episode(job: tuple[str, str, int], *, sim: str, checkpoints: str | None
         _PROCESS_PARTS["simulator"] = registry.create("simulator", sim)
         _PROCESS_PARTS["skills"] = registry.create("skill_library", "tableenv", {"checkpoints": checkpoints} if checkpoints else {})
     if planner_name not in _PROCESS_PARTS:
-        options = {"population": population} if population and planner_name != "policy" else {}
-        _PROCESS_PARTS[planner_name] = registry.create("feasibility_planner", planner_name, options)
+        _PROCESS_PARTS[planner_name] = registry.create("feasibility_planner", planner_name, options if planner_name != "policy" else {})
     simulator, task = _PROCESS_PARTS["simulator"], load_task(task_id)
     reset = simulator.reset(task, seed=seed * SEED_SPACING)
     started = time.perf_counter()
@@ -135,14 +146,11 @@ def _run_episode(job: tuple[str, str, int], *, sim: str, checkpoints: str | None
 
 def reliability(episodes: list[dict]) -> list[dict]:
     """Predicted p_success of the first plan against realised success, in bins of 0.2."""
-    rows = []
-    for low in np.arange(0.0, 1.0, 0.2):
-        chosen = [e for e in episodes if e["predicted_p_success"] is not None and low <= e["predicted_p_success"] < low + 0.2 + (low >= 0.8) * 1e-9]
-        if chosen:
-            rows.append({"bin_low": round(float(low), 1), "count": len(chosen),
-                         "predicted": float(np.mean([e["predicted_p_success"] for e in chosen])),
-                         "realised": float(np.mean([e["success"] for e in chosen]))})
-    return rows
+    from t2m_skills_tableenv.report import reliability as binned
+
+    planned = [e for e in episodes if e["predicted_p_success"] is not None]
+    return binned(np.array([e["predicted_p_success"] for e in planned]), np.array([e["success"] for e in planned], dtype=float),
+                  np.linspace(0.0, 1.0, 6))
 
 
 def plot_reliability(report: dict, path: str) -> None:

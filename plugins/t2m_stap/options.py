@@ -44,6 +44,10 @@ class CEMOptions(SamplingOptions):
     sigma_mode: Literal["constant", "adaptive"] = Field(
         "constant", description="constant: hold sigma (paper); adaptive: the elites' std, floored at 1e-4 (original)"
     )
+    restarts: int = Field(
+        1, ge=1, description="independent CEM runs from the same start, drawn one after another from the seed's "
+        "random stream; the best score wins (1: the paper's single run)"
+    )
 
 
 class RandomCEMOptions(CEMOptions):

@@ -104,8 +104,21 @@ class CrossEntropyMethod(FeasibilityPlannerBase):
         self.initial = initial
 
     def search(self, start: torch.Tensor, steps: list[Step], thresholds: torch.Tensor, prefix_actions: torch.Tensor | None) -> tuple[Rollouts, int]:
+        generator = torch.Generator().manual_seed(self.options.seed)
+        best: tuple[float, Rollouts, int] | None = None
+        for _ in range(self.options.restarts):  # one random stream: the first run is the same for any restarts
+            found = self._run(start, steps, thresholds, prefix_actions, generator)
+            if best is None or found[0] > best[0]:
+                best = found
+        assert best is not None
+        return best[1], best[2]
+
+    def _run(
+        self, start: torch.Tensor, steps: list[Step], thresholds: torch.Tensor, prefix_actions: torch.Tensor | None,
+        generator: torch.Generator,
+    ) -> tuple[float, Rollouts, int]:
+        """One CEM run: its best score, the rollouts holding its best trajectory, and its index."""
         options = self.options
-        generator = torch.Generator().manual_seed(options.seed)
         horizon = len(steps)
         if self.initial == "policy":
             mean = rollout(steps, start, prefix_actions=prefix_actions).actions[0]
@@ -133,7 +146,7 @@ class CrossEntropyMethod(FeasibilityPlannerBase):
             if options.sigma_mode == "adaptive":
                 sigma = elites.std(dim=0, unbiased=False).clamp_min(1e-4) if len(elites) > 1 else sigma
         assert best is not None
-        return best[1], best[2]
+        return best
 
 
 class Shooting(FeasibilityPlannerBase):

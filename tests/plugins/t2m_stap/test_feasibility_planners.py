@@ -116,3 +116,21 @@ def test_prefix_actions_of_the_wrong_shape_are_refused(shape: tuple[int, ...]) -
     skills = {"pick": ToySkill("pick"), "place": ToySkill("place", chained=True)}
     with pytest.raises(ValueError, match=r"initial_actions must be \(T0, 4\) with T0 <= 2"):
         CrossEntropyMethod(CEMOptions(population=10)).plan(OBSERVATION, [PICK, PLACE], skills, OBJECTS, initial_actions=np.zeros(shape))
+
+
+def test_restarts_keep_the_best_of_several_runs() -> None:
+    # eight samples and two iterations rarely reach the target: more runs from the same start find better plans
+    skills = {"pick": ToySkill("pick", target=(0.6, -0.4, 0.2, 0.0)), "place": ToySkill("place", chained=True)}
+
+    def plan(seed: int, restarts: int):
+        options = CEMOptions(population=8, iterations=2, elites=2, seed=seed, restarts=restarts)
+        return CrossEntropyMethod(options).plan(OBSERVATION, [PICK, PLACE], skills, OBJECTS)
+
+    single = [plan(seed, 1) for seed in range(4)]
+    several = [plan(seed, 6) for seed in range(4)]
+    assert all(s.p_success >= one.p_success for s, one in zip(several, single))  # the first run is the single run
+    assert max(s.p_success / one.p_success for s, one in zip(several, single)) > 10
+    for result in several:
+        assert result.p_success == pytest.approx(float(np.prod(result.values)), rel=1e-5)  # the plan carries its own values
+    with pytest.raises(ValueError, match="restarts"):
+        CEMOptions(restarts=0)
