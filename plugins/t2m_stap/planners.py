@@ -105,25 +105,23 @@ class CrossEntropyMethod(FeasibilityPlannerBase):
 
     def search(self, start: torch.Tensor, steps: list[Step], thresholds: torch.Tensor, prefix_actions: torch.Tensor | None) -> tuple[Rollouts, int]:
         generator = torch.Generator().manual_seed(self.options.seed)
+        policy_mean = rollout(steps, start, prefix_actions=prefix_actions).actions[0] if self.initial == "policy" else None
         best: tuple[float, Rollouts, int] | None = None
         for _ in range(self.options.restarts):  # one random stream: the first run is the same for any restarts
-            found = self._run(start, steps, thresholds, prefix_actions, generator)
+            mean = policy_mean if policy_mean is not None else torch.rand((len(steps), 4), generator=generator) * 2 - 1
+            found = self._run(start, steps, thresholds, mean, generator)
             if best is None or found[0] > best[0]:
                 best = found
         assert best is not None
         return best[1], best[2]
 
     def _run(
-        self, start: torch.Tensor, steps: list[Step], thresholds: torch.Tensor, prefix_actions: torch.Tensor | None,
-        generator: torch.Generator,
+        self, start: torch.Tensor, steps: list[Step], thresholds: torch.Tensor, mean: torch.Tensor, generator: torch.Generator
     ) -> tuple[float, Rollouts, int]:
-        """One CEM run: its best score, the rollouts holding its best trajectory, and its index."""
+        """One CEM run from the starting mean ``(T, 4)``: its best score, the rollouts holding its best
+        trajectory, and that trajectory's index."""
         options = self.options
         horizon = len(steps)
-        if self.initial == "policy":
-            mean = rollout(steps, start, prefix_actions=prefix_actions).actions[0]
-        else:
-            mean = torch.rand((horizon, 4), generator=generator) * 2 - 1
         sigma = torch.full((horizon, 4), options.sigma)
         samples_per_iteration = options.samples(horizon)
         best: tuple[float, Rollouts, int] | None = None
