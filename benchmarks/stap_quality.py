@@ -22,7 +22,6 @@ import functools
 import time
 
 import numpy as np
-import yaml
 
 
 def main() -> None:
@@ -58,12 +57,17 @@ def main() -> None:
     except T2MError as error:
         parser.error(f"{error.message} ({error.hint})")
     planner_names = args.planners.split(",")
+    from t2m_core.config.resolve import parse_override
+
     options = {}
     for item in args.option:
-        key, separator, value = item.partition("=")
-        if not separator or not key:
+        try:
+            path, value = parse_override(item)
+        except T2MError:
+            path, value = (), None
+        if len(path) != 1:
             parser.error(f"--option {item!r}: give KEY=VALUE, e.g. restarts=3")
-        options[key] = yaml.safe_load(value)
+        options[path[0]] = value
     if args.population:
         options["population"] = args.population
     if args.skeleton is not None:
