@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from replay import start_replay
 
 from t2m_core.atomic_files import write_json_atomic
 from t2m_core.errors import T2MError
@@ -36,32 +37,19 @@ def replan_failed_step(run: Path, seeds: int) -> dict[str, Any]:
         T2MError: the run did not fail at a skill, or its replay does not reproduce the record.
     """
     from t2m_core.components import build_component
-    from t2m_core.config.resolve import resolve_config
     from t2m_core.domain.skills import parse_skill_call
     from t2m_core.registry import get_registry
-    from t2m_core.run_records import read_result
-    from t2m_core.tasks import load_task
 
-    result = read_result(run)
-    if result is None:
-        raise T2MError(f"{run} holds no result.json", "give a finished run directory")
+    replay = start_replay(run)
+    result, config, simulator, names = replay.result, replay.config, replay.simulator, replay.names
     executed = result.get("executed") or []
     failed = next((i for i, step in enumerate(executed) if not step["success"]), None)
     if failed is None:
         raise T2MError(f"{run}: no executed skill failed", "give a run that failed in execution")
-    config = resolve_config([run / "config.yaml"], registry=get_registry())
-    simulator, skills = build_component(config, "simulator"), build_component(config, "skills")
-    reset = simulator.reset(load_task(config.task), seed=result["seed"])
-    if result.get("accepted_seed") is not None and reset.accepted_seed != result["accepted_seed"]:
-        raise T2MError(f"{run}: the reset accepted seed {reset.accepted_seed}, the run {result['accepted_seed']}",
-                       "the scene sampler changed since the run; replay it with the version that made it")
-    names = reset.state.object_names
-    for step in executed[:failed]:
-        call = parse_skill_call(step["skill"], names)
-        outcome = simulator.execute(call.name, call.args, np.asarray(step["action"], dtype=np.float64))
-        if not outcome.success:
-            raise T2MError(f"{run}: replaying {step['skill']} failed ({outcome.failure}); the run's succeeded",
-                           "the simulator or its options changed since the run")
+    skills = build_component(config, "skills")
+    for index, _call, _record in replay.steps():
+        if index == failed:
+            break
     snapshot = simulator.get_state()
     remaining = [parse_skill_call(text, names) for text in result["plan"][failed:]]
     planner_block = config.feasibility_planner

@@ -21,6 +21,10 @@ class SamplingOptions(BaseModel):
         20_000, ge=1, description="trajectories rolled out per batch (bounds memory; CEM results do not depend on it)"
     )
     ood_penalty: bool = Field(False, description="optimise the OOD-masked product instead of reporting the flags only")
+    sweep_veto: bool = Field(
+        False, description="value 0 for Pull and Push actions the domain's geometry predicts to sweep into another object "
+        "(a deviation: the method judges with the ensembles alone)"
+    )
 
     def samples(self, horizon: int) -> int:
         """Trajectories per iteration for a skeleton of ``horizon`` skills."""
@@ -67,6 +71,8 @@ class ShootingOptions(SamplingOptions):
 
 
 class PolicyOptions(BaseModel):
-    """The deterministic policy rollout: nothing to choose."""
+    """The deterministic policy rollout: nothing to search."""
 
     model_config = ConfigDict(extra="forbid")
+
+    sweep_veto: bool = Field(False, description="report value 0 for Pull and Push actions the domain's geometry predicts to sweep into another object")

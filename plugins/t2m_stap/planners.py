@@ -59,6 +59,8 @@ class FeasibilityPlannerBase:
     """What every planner here does around its search: check the observation, prepare the skeleton's
     steps and thresholds, and turn the chosen trajectory into a :class:`PlanResult`."""
 
+    options: SamplingOptions | PolicyOptions
+
     def plan(
         self,
         observation: np.ndarray,
@@ -72,7 +74,7 @@ class FeasibilityPlannerBase:
         if not skeleton:
             return _empty_plan(start)
         prefix_actions = _initial_actions(initial_actions, len(skeleton))
-        steps = prepare_steps(skeleton, skills, object_names)
+        steps = prepare_steps(skeleton, skills, object_names, sweep_veto=self.options.sweep_veto)
         thresholds = thresholds_of(steps)
         rollouts, index = self.search(start, steps, thresholds, prefix_actions)
         return plan_result(rollouts, index, thresholds)

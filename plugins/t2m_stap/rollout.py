@@ -19,6 +19,8 @@ import torch
 from t2m_core.domain.observation import FEATURE_HIGH, FEATURE_LOW, STATIC_FEATURES, argument_first_order
 from t2m_core.domain.skills import SkillCall
 from t2m_core.protocols import Skill
+from t2m_stap.sweep_veto import Veto
+from t2m_stap.sweep_veto import sweep_veto as make_sweep_veto
 
 _MID = torch.from_numpy(0.5 * (FEATURE_LOW + FEATURE_HIGH))
 _SPAN = torch.from_numpy(FEATURE_HIGH - FEATURE_LOW)
@@ -32,6 +34,8 @@ class Step:
         call: the grounded skill. skill: its learned models.
         order: ``(8,) int64`` argument-first order of the raw rows; inverse: its inverse.
         present: number of present objects (rows 1..present).
+        veto: ``None``, or the actions whose value is set to 0 whatever the ensemble says
+            (:mod:`~t2m_stap.sweep_veto`).
     """
 
     call: SkillCall
@@ -39,10 +43,14 @@ class Step:
     order: torch.Tensor
     inverse: torch.Tensor
     present: int
+    veto: Veto | None = None
 
 
-def prepare_steps(skeleton: Sequence[SkillCall], skills: Mapping[str, Skill], object_names: Sequence[str]) -> list[Step]:
-    """Row orders and models of every skill in ``skeleton``.
+def prepare_steps(
+    skeleton: Sequence[SkillCall], skills: Mapping[str, Skill], object_names: Sequence[str], *, sweep_veto: bool = False
+) -> list[Step]:
+    """Row orders and models of every skill in ``skeleton``; with ``sweep_veto``, the hook sweeps'
+    geometric veto (:func:`~t2m_stap.sweep_veto.sweep_veto`).
 
     Raises:
         KeyError: a skill the library does not have, naming the ones it has.
@@ -53,7 +61,8 @@ def prepare_steps(skeleton: Sequence[SkillCall], skills: Mapping[str, Skill], ob
             raise KeyError(f"the skill library has no {call.name!r} skill; it has {', '.join(sorted(skills))}")
         row_order = argument_first_order(object_names, call.args)
         order = torch.from_numpy(row_order.order)
-        steps.append(Step(call, skills[call.name], order, torch.from_numpy(row_order.inverse), row_order.num_present))
+        veto = make_sweep_veto(call, object_names) if sweep_veto else None
+        steps.append(Step(call, skills[call.name], order, torch.from_numpy(row_order.inverse), row_order.num_present, veto))
     return steps
 
 
@@ -140,9 +149,12 @@ def rollout(
                 noise = torch.randn(action.shape, generator=generator) * policy_noise
                 action = (action + noise).clamp(-1.0, 1.0)
         q = _as_tensor(step.skill.q_values(encoded, action))
+        value = q.min(dim=1).values.clamp(0.0, 1.0)
+        if step.veto is not None:
+            value = value.masked_fill(step.veto(current, action), 0.0)
         current = decode(_as_tensor(step.skill.predict(encoded, action)), current, step)
         chosen.append(action)
-        values.append(q.min(dim=1).values.clamp(0.0, 1.0))
+        values.append(value)
         variances.append(q.var(dim=1, unbiased=False))
         members.append(q)
         states.append(current)

@@ -27,7 +27,8 @@ def datagen(
     chunk_size: Annotated[int, typer.Option("--chunk-size", min=1, help="Transitions per shard.")] = 250,
     sampler: Annotated[
         str, typer.Option("--sampler", help="Action sampler: screened (default), heuristic, uniform, proposal (a skill library's planner proposals) "
-                     "or planned (the feasibility planner's own actions along task rollouts; needs --scenes tasks).")
+                     "planned (the feasibility planner's own actions along task rollouts; needs --scenes tasks) "
+                     "or obstructed (pull and push: half the screened draws replaced by sweeps into a bystander).")
     ] = "screened",
     actions_per_scene: Annotated[
         int, typer.Option("--actions-per-scene", min=1, help="Actions executed from each reset scene (restored exactly between them); above 1 makes data cheaper.")

@@ -56,10 +56,14 @@ SAMPLERS: dict[str, str] = {
     "uniform": "uniform",
     "proposal": "proposal",
     "planned": "planned",
+    "obstructed": "obstructed_exploration_action",
 }
 """Action samplers of data generation -> :class:`Primitive` method (``uniform``: U[-1, 1]^4;
 ``proposal``: a skill library's proposals, :mod:`t2m_core.data.proposals`; ``planned``: the
-feasibility planner's actions along task rollouts, :mod:`t2m_core.data.rollouts`)."""
+feasibility planner's actions along task rollouts, :mod:`t2m_core.data.rollouts`; ``obstructed``: the
+screened sampler, half of whose draws sweep into a bystander where one can, Pull and Push only)."""
+SKILL_SAMPLERS: dict[str, tuple[str, ...]] = {"obstructed": ("pull", "push")}
+"""Samplers that only some skills have (the others: every skill)."""
 LIBRARY_SAMPLERS: tuple[str, ...] = ("proposal", "planned")
 """Samplers that propose with a skill library (they need one, and only they may roll out tasks)."""
 UNBALANCED_SAMPLERS: tuple[str, ...] = ("planned",)
@@ -134,6 +138,9 @@ class ChunkSpec:
             raise DataGenerationError(f"unknown split {self.split!r}", f"use one of: {', '.join(SPLITS)}")
         if self.sampler not in SAMPLERS:
             raise DataGenerationError(f"unknown action sampler {self.sampler!r}", f"use one of: {', '.join(SAMPLERS)}")
+        if self.skill not in SKILL_SAMPLERS.get(self.sampler, DATA_SKILLS):
+            raise DataGenerationError(f"the {self.sampler} sampler has no {self.skill} draws",
+                                      f"use it with {' or '.join(SKILL_SAMPLERS[self.sampler])}, or another --sampler")
         if (self.sampler in LIBRARY_SAMPLERS) != (self.proposal is not None) and self.simulated:
             raise DataGenerationError("the proposal and planned samplers, and only they, need a proposal skill library",
                                       "give --proposal-checkpoints with --sampler proposal or planned")

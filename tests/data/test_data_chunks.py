@@ -115,6 +115,13 @@ def test_unknown_names_are_rejected_with_the_choices() -> None:
     assert "table" in OBJECT_VOCABULARY
 
 
+def test_the_obstructed_sampler_is_refused_for_skills_without_a_sweep() -> None:
+    for skill in ("pick", "place"):
+        with pytest.raises(DataGenerationError, match="pull or push"):
+            ChunkSpec(skill, "train", 0, 5, sampler="obstructed")
+    assert ChunkSpec("push", "train", 0, 5, sampler="obstructed").header()["sampler"] == "obstructed"
+
+
 class _CountingResets(ScriptedSimulator):
     """The scripted simulator, counting resets."""
 

@@ -193,3 +193,35 @@ def test_primitives_without_a_screen_use_the_heuristic() -> None:
     for _ in range(50):
         action = PUSH.screened_exploration_action(PUSH_SCENE, PUSH_ARGS, np.random.default_rng(_))
         assert action.shape == (4,) and np.all(np.abs(action) <= 1.0)
+
+
+BLOCKED_PULL = holding_hook((0.8, 0.0), grasp_x=-0.1, rack=False, red_box=on_table("red_box", 0.6, 0.0))
+"""A pull whose box's way to the base crosses the red box (task3's pull-first failures)."""
+
+
+def test_in_the_way_sees_a_bystander_on_the_sweep_and_nothing_else() -> None:
+    draws = np.array([pull(-0.3, -0.03), pull(-0.2, 0.0), pull(-0.3, 0.05)])
+    assert PULL.in_the_way(BLOCKED_PULL, PULL_ARGS, draws).tolist() == [True, True, True]
+    aside = holding_hook((0.8, 0.0), grasp_x=-0.1, rack=False, red_box=on_table("red_box", 0.45, -0.35))
+    assert PULL.in_the_way(aside, PULL_ARGS, draws).tolist() == [False, False, False]
+    assert PULL.in_the_way(PULL_SCENE, PULL_ARGS, draws).tolist() == [False, False, False]  # no bystander at all
+    # Whatever else the screen says: the third draw tips the box first, yet it sweeps through the red box.
+    assert PULL.screen(BLOCKED_PULL, PULL_ARGS, draws[2]) == "tipped_over"
+
+
+def test_obstructed_sampler_sweeps_into_a_bystander_about_half_the_time() -> None:
+    rng = np.random.default_rng(6)
+    physical = np.array([PULL.obstructed_physical(BLOCKED_PULL, PULL_ARGS, rng) for _ in range(200)])
+    assert np.all(physical >= PULL.action_low) and np.all(physical <= PULL.action_high)
+    hits = PULL.in_the_way(BLOCKED_PULL, PULL_ARGS, physical).sum()
+    rng = np.random.default_rng(6)
+    screened = PULL.in_the_way(BLOCKED_PULL, PULL_ARGS, np.array([PULL.screened_physical(BLOCKED_PULL, PULL_ARGS, rng) for _ in range(200)])).sum()
+    # Here the screened sampler often finds no passing draw and falls back to a heuristic one through
+    # the red box (78 of 200); the obstructed one aims half its draws there: about 78 + (200 - 78) / 2.
+    assert 40 < screened < 120 and hits - screened > 40 and hits < 180
+    # Without a bystander nothing can be in the way: every draw is the screened sampler's, passing its screen.
+    rng = np.random.default_rng(6)
+    for _ in range(20):
+        assert PULL.screen(PULL_SCENE, PULL_ARGS, PULL.obstructed_physical(PULL_SCENE, PULL_ARGS, rng)) is None
+        action = PUSH.obstructed_exploration_action(PUSH_SCENE, PUSH_ARGS, rng)
+        assert action.shape == (4,) and np.all(np.abs(action) <= 1.0)

@@ -16,7 +16,16 @@ import numpy as np
 from t2m_core.domain.geometry import quat_conjugate, quat_multiply, quat_yaw, rotate, yaw_to_quat
 from t2m_core.domain.objects import object_spec
 from t2m_core.domain.primitives.base import Primitive
-from t2m_core.domain.primitives.sweep_screen import Verdicts, lands_on_target, predict_sweep, unreachable
+from t2m_core.domain.primitives.sweep_screen import (
+    SweepPrediction,
+    Verdicts,
+    bystanders,
+    lands_on_target,
+    obstacle_footprints,
+    predict_sweep,
+    sweep_disturbs,
+    unreachable,
+)
 from t2m_core.domain.state import GeometricState
 
 SWEEP_HEIGHT = 0.03
@@ -29,6 +38,9 @@ SCREEN_FALLBACK_DRAWS = 256
 """Most uniform draws it then screens before it gives up and returns the last heuristic draw (both
 sets judged as batches, about 7 ms of CPU per call in data-generation scenes; in task3's Pull scenes
 a passing uniform draw, where one exists, is found within 256 draws in 9 of 10 scenes)."""
+
+OBSTRUCTED_SHARE = 0.5
+"""Share of :meth:`HookSweep.obstructed_physical` draws that sweep into a bystander where one can."""
 
 
 @dataclass(frozen=True)
@@ -147,6 +159,29 @@ class HookSweep(Primitive):
             passing = self._first_passing(state, arguments, uniform)
         return heuristic[-1] if passing is None else passing
 
+    def obstructed_physical(self, state: GeometricState, arguments: Sequence[str], rng: np.random.Generator) -> np.ndarray:
+        """With probability :data:`OBSTRUCTED_SHARE`, a sweep into a bystander: the first of
+        :data:`SCREEN_DRAWS` heuristic draws, then of :data:`SCREEN_FALLBACK_DRAWS` uniform ones, that
+        :meth:`in_the_way` predicts to meet one; otherwise, and in a scene where no draw does, the
+        :meth:`screened_physical` action.
+
+        The screened sampler avoids such sweeps, so its data hold almost no failure from them, and an
+        ensemble trained there values a planner's sweep through a box as highly as one beside it
+        (docs/guide/skills.md#obstructed-sweeps). Here the physics labels both."""
+        arguments = self.check_arguments(state, arguments)
+        if rng.random() < OBSTRUCTED_SHARE:
+            for draws in (self.heuristic_draws(arguments, rng, SCREEN_DRAWS),
+                          rng.uniform(self.action_low, self.action_high, (SCREEN_FALLBACK_DRAWS, len(self.action_low)))):
+                blocked = np.flatnonzero(self.in_the_way(state, arguments, draws))
+                if blocked.size:
+                    return draws[blocked[0]]
+        return self.screened_physical(state, arguments, rng)
+
+    def obstructed_exploration_action(self, state: GeometricState, arguments: Sequence[str], rng: np.random.Generator) -> np.ndarray:
+        """:meth:`~t2m_core.domain.primitives.base.Primitive.exploration_action` around
+        :meth:`obstructed_physical` (normalised, ``(4,)``)."""
+        return self._explore(lambda *args: np.clip(self.to_normalized(self.obstructed_physical(*args)), -1.0, 1.0), state, arguments, rng)
+
     def _first_passing(self, state: GeometricState, arguments: Sequence[str], draws: np.ndarray) -> np.ndarray | None:
         """The first row of ``(B, 4)`` physical draws that the screen passes, or ``None``."""
         reasons = self.screen_draws(state, arguments, draws)
@@ -164,9 +199,17 @@ class HookSweep(Primitive):
         reason = self.precheck(state, arguments, self.to_normalized(physical[0]))
         if reason is not None:
             return [reason] * len(physical)
+        verdicts = Verdicts(self.predict(state, arguments, physical))
+        verdicts.check("unreachable", unreachable)
+        verdicts.check("tipped_over", lands_on_target)
+        self.screen_sweep(state, arguments, verdicts)
+        return verdicts.reasons
+
+    def predict(self, state: GeometricState, arguments: Sequence[str], physical: np.ndarray) -> SweepPrediction:
+        """The predicted sweeps of ``(B, 4)`` physical actions (:func:`~t2m_core.domain.primitives.sweep_screen.predict_sweep`)."""
         target, hook = arguments[0], arguments[1]
         poses = sweep_poses(state, target, hook, *np.asarray(physical, dtype=np.float64).T)
-        prediction = predict_sweep(
+        return predict_sweep(
             state,
             target,
             hook,
@@ -177,11 +220,18 @@ class HookSweep(Primitive):
             along_head_normal=self.deflects_target,
             into_crook=not self.deflects_target,
         )
-        verdicts = Verdicts(prediction)
-        verdicts.check("unreachable", unreachable)
-        verdicts.check("tipped_over", lands_on_target)
-        self.screen_sweep(state, arguments, verdicts)
-        return verdicts.reasons
+
+    def in_the_way(self, state: GeometricState, arguments: Sequence[str], physical: np.ndarray) -> np.ndarray:
+        """``(B,)`` whether each of ``(B, 4)`` physical actions is predicted to sweep the hook, the box
+        or the hand into a bystander (an object other than the arguments and the table:
+        :func:`~t2m_core.domain.primitives.sweep_screen.sweep_disturbs`), whatever else the screen
+        would say of it. A prediction from the domain's geometry, not a result."""
+        arguments = self.check_arguments(state, arguments)
+        obstacles = obstacle_footprints(bystanders(state, arguments))
+        if len(obstacles) == 0:
+            return np.zeros(len(physical), dtype=bool)
+        prediction = self.predict(state, arguments, np.asarray(physical, dtype=np.float64))
+        return sweep_disturbs(prediction, hook_obstacles=obstacles, target_obstacles=obstacles, hand_obstacles=obstacles)
 
     deflects_target: bool = False
     """Whether the swept box slides along the head's normal (Push) rather than following the sweep,

@@ -7,7 +7,7 @@ import pytest
 
 from t2m_core.domain.skills import SkillCall
 from t2m_core.testing import check_feasibility_planner
-from t2m_stap.options import CEMOptions, RandomCEMOptions, ShootingOptions
+from t2m_stap.options import CEMOptions, PolicyOptions, RandomCEMOptions, ShootingOptions
 from t2m_stap.planners import CrossEntropyMethod, PolicyRollout, Shooting
 from tests.plugins.t2m_stap.toy_skills import ToySkill
 
@@ -134,3 +134,37 @@ def test_restarts_keep_the_best_of_several_runs() -> None:
         assert result.p_success == pytest.approx(float(np.prod(result.values)), rel=1e-5)  # the plan carries its own values
     with pytest.raises(ValueError, match="restarts"):
         CEMOptions(restarts=0)
+
+
+def _blocked_pull():
+    """A held hook, the blue box at (0.8, 0) and the red box at (0.6, 0.15), beside its way to the
+    base; the pull straight at the base with y = 0 sweeps into the red box."""
+    from t2m_core.domain.observation import encode_observation
+    from tests.domain.test_sweep_screen import PULL, holding_hook, on_table, pull
+
+    state = holding_hook((0.8, 0.0), grasp_x=-0.1, rack=False, red_box=on_table("red_box", 0.6, 0.15))
+    through = PULL.to_normalized(pull(-0.3, 0.0))
+    return state, encode_observation(state, state.object_names), state.object_names, through
+
+
+def test_the_sweep_veto_moves_the_plan_off_a_pull_into_a_bystander() -> None:
+    from tests.domain.test_sweep_screen import PULL, PULL_ARGS
+
+    state, observation, names, through = _blocked_pull()
+    skills = {"pull": ToySkill("pull", target=tuple(through), policy_action=tuple(through))}
+    call = SkillCall("pull", PULL_ARGS)
+    assert PULL.in_the_way(state, PULL_ARGS, PULL.to_physical(through)[None])[0]  # the toy's best action hits the red box
+    plain = CrossEntropyMethod(CEMOptions(population=500)).plan(observation, [call], skills, names)
+    np.testing.assert_allclose(plain.actions[0], through, atol=0.05)
+    assert plain.values[0] > 0.95
+    vetoed = CrossEntropyMethod(CEMOptions(population=500, sweep_veto=True)).plan(observation, [call], skills, names)
+    assert not PULL.in_the_way(state, PULL_ARGS, PULL.to_physical(vetoed.actions[0])[None])[0]
+    expected = 0.98 * np.exp(-np.sum((vetoed.actions[0] - through) ** 2) / 0.1)  # the toy's value there, not vetoed
+    assert 0.05 < vetoed.values[0] < 0.9 and vetoed.values[0] == pytest.approx(expected, rel=1e-4)
+    # The policy alone reports its action's value as 0, and a skill without a sweep is left alone.
+    assert PolicyRollout(PolicyOptions(sweep_veto=True)).plan(observation, [call], skills, names).p_success == 0.0
+    assert PolicyRollout().plan(observation, [call], skills, names).p_success > 0.95
+    pick = {"pick": ToySkill("pick")}
+    a = CrossEntropyMethod(CEMOptions(population=300, sweep_veto=True)).plan(OBSERVATION, [PICK], pick, OBJECTS)
+    b = CrossEntropyMethod(CEMOptions(population=300)).plan(OBSERVATION, [PICK], pick, OBJECTS)
+    np.testing.assert_array_equal(a.actions, b.actions)
