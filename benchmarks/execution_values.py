@@ -15,9 +15,10 @@ With ``--checkpoints DIR`` (repeatable), every episode is also replayed in its r
 (``replay.py``) and each executed step valued again, at the state it ran from, by the skill library
 loaded from ``DIR``: would another set of checkpoints have told the failures from the successes
 better? (The steps are the ones the recorded library chose; a library valued on them is judged
-where that library's planner went, not where its own would go.) ``--sweep-prediction`` does the same
-for the domain's geometric prediction of a Pull or Push that sweeps into another object (the
-planners' ``sweep_veto``): its value is 0 for such a step, 1 otherwise.
+where that library's planner went, not where its own would go.) ``--geometric-prediction`` does the same
+for the domain's geometric prediction of a Pull or Push that sweeps into another object and of a
+Place that sets its object down against one (the planners' ``veto`` option): its
+value is 0 for such a step, 1 otherwise.
 """
 
 from __future__ import annotations
@@ -39,8 +40,8 @@ from t2m_core.run_records import read_plan_tree, read_result
 
 P_SUCCESS_BINS = (0.0, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0)
 """Edges of the accepted plans' ``p_success`` bins (the last bin includes 1)."""
-SWEEP_PREDICTION = "sweep prediction"
-"""The key of the geometric sweep prediction's verdicts among the revalued steps."""
+GEOMETRIC_PREDICTION = "geometric prediction"
+"""The key of the geometric prediction's verdicts among the revalued steps."""
 Step = tuple[float, bool, str | None]
 """One executed step: its value, whether it succeeded, the failure reason."""
 
@@ -74,13 +75,14 @@ def collect(directories: list[Path]) -> tuple[dict[str, list[Step]], list[tuple[
     return steps, episodes
 
 
-def revalue(directories: list[Path], checkpoints: list[Path], sweep_prediction: bool = False) -> dict[str, dict[str, list[Step]]]:
+def revalue(directories: list[Path], checkpoints: list[Path], geometric_prediction: bool = False) -> dict[str, dict[str, list[Step]]]:
     """Per checkpoints directory, per skill name: ``(value, succeeded, failure)`` of every executed
     step, its value the min-of-ensemble Q (clipped to [0, 1]) of the recorded run's skill library
     plugin loaded from that directory, at the replayed state the step ran from. With
-    ``sweep_prediction``, also under the key ``"sweep prediction"``, for the skills that have one
-    (Pull, Push): value 0 where the domain's geometry predicts the recorded action to sweep into
-    another object (``HookSweep.in_the_way``, the planners' sweep veto), else 1.
+    ``geometric_prediction``, also under the key :data:`GEOMETRIC_PREDICTION`, for the skills whose
+    primitive has one (Pull, Push, Place): value 0 where the domain's geometry predicts the recorded
+    action to drive something into another object (the primitive's ``in_the_way``, the planners'
+    geometric veto), else 1.
 
     Raises:
         T2MError: a replay that does not reproduce its record, or a checkpoint that does not load.
@@ -91,8 +93,8 @@ def revalue(directories: list[Path], checkpoints: list[Path], sweep_prediction: 
 
     libraries: dict[tuple[str, Path], Any] = {}
     steps: dict[str, dict[str, list[Step]]] = {str(directory): {} for directory in checkpoints}
-    if sweep_prediction:
-        steps[SWEEP_PREDICTION] = {}
+    if geometric_prediction:
+        steps[GEOMETRIC_PREDICTION] = {}
     for run in directories:
         replay = start_replay(run)
         block = replay.config.skills
@@ -108,10 +110,10 @@ def revalue(directories: list[Path], checkpoints: list[Path], sweep_prediction: 
                 value = float(np.clip(members.min(), 0.0, 1.0))
                 steps[str(directory)].setdefault(call.name, []).append((value, bool(record["success"]), record.get("failure")))
             primitive = get_primitive(call.name)
-            if sweep_prediction and hasattr(primitive, "in_the_way"):
+            if geometric_prediction and hasattr(primitive, "in_the_way"):
                 physical = primitive.to_physical(np.asarray(record["action"], dtype=np.float64))[None]
                 blocked = bool(primitive.in_the_way(replay.simulator.geometric_state(), call.args, physical)[0])
-                steps[SWEEP_PREDICTION].setdefault(call.name, []).append((0.0 if blocked else 1.0, bool(record["success"]), record.get("failure")))
+                steps[GEOMETRIC_PREDICTION].setdefault(call.name, []).append((0.0 if blocked else 1.0, bool(record["success"]), record.get("failure")))
     return steps
 
 
@@ -142,8 +144,8 @@ def main() -> None:
     parser.add_argument("directories", nargs="+", type=Path, help="evaluation or run directories")
     parser.add_argument("--checkpoints", action="append", type=Path, default=[],
                         help="also value every executed step again with the skill library loaded from this checkpoints directory (repeatable)")
-    parser.add_argument("--sweep-prediction", action="store_true",
-                        help="also judge every executed Pull and Push by the geometric sweep prediction (0: into another object)")
+    parser.add_argument("--geometric-prediction", action="store_true",
+                        help="also judge every executed Pull, Push and Place by the domain's geometric prediction (0: into another object)")
     parser.add_argument("--json", dest="json_out", default=None)
     args = parser.parse_args()
     directories = episode_directories(args.directories)
@@ -152,7 +154,7 @@ def main() -> None:
                  "give directories written by `t2m run` or `t2m eval`")
     try:
         steps, episodes = collect(directories)
-        revalued = revalue(directories, args.checkpoints, args.sweep_prediction) if args.checkpoints or args.sweep_prediction else {}
+        revalued = revalue(directories, args.checkpoints, args.geometric_prediction) if args.checkpoints or args.geometric_prediction else {}
     except T2MError as error:
         sys.exit(f"{error.message}: {error.hint}" if error.hint else error.message)
     predicted = np.array([e[0] for e in episodes])
@@ -164,7 +166,7 @@ def main() -> None:
         print(f"{row['skill']:6s} {row['steps']:6d} {row['failures']:6d} {_fmt(row['mean_value_success']):>9s} "
               f"{_fmt(row['mean_value_failure']):>10s} {_fmt(row['auc'], '.3f'):>6s}  {row['failure_reasons']}")
     for directory, by_skill in revalued.items():
-        print(f"\nvalued again with {directory}:" if directory != SWEEP_PREDICTION else "\njudged by the geometric sweep prediction (0: into another object, 1: clear):")
+        print(f"\nvalued again with {directory}:" if directory != GEOMETRIC_PREDICTION else "\njudged by the geometric prediction (0: into another object, 1: clear):")
         for row in skill_table(by_skill):
             print(f"{row['skill']:6s} {row['steps']:6d} {row['failures']:6d} {_fmt(row['mean_value_success']):>9s} "
                   f"{_fmt(row['mean_value_failure']):>10s} {_fmt(row['auc'], '.3f'):>6s}")

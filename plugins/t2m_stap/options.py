@@ -6,6 +6,10 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+VetoSkill = Literal["pull", "push", "place"]
+"""The skills whose primitives predict from the domain's geometry when an action drives something into
+another object (:mod:`t2m_stap.geometric_veto`)."""
+
 
 class SamplingOptions(BaseModel):
     """What every sampling planner shares."""
@@ -21,9 +25,10 @@ class SamplingOptions(BaseModel):
         20_000, ge=1, description="trajectories rolled out per batch (bounds memory; CEM results do not depend on it)"
     )
     ood_penalty: bool = Field(False, description="optimise the OOD-masked product instead of reporting the flags only")
-    sweep_veto: bool = Field(
-        False, description="value 0 for Pull and Push actions the domain's geometry predicts to sweep into another object "
-        "(a deviation: the method judges with the ensembles alone)"
+    veto: list[VetoSkill] = Field(
+        default_factory=list, description="skills (pull, push, place) whose actions get the value 0 where the domain's geometry "
+        "predicts them to drive the hook, the box or the held object into another object (a deviation: the method judges with "
+        "the ensembles alone)"
     )
 
     def samples(self, horizon: int) -> int:
@@ -75,4 +80,7 @@ class PolicyOptions(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    sweep_veto: bool = Field(False, description="report value 0 for Pull and Push actions the domain's geometry predicts to sweep into another object")
+    veto: list[VetoSkill] = Field(
+        default_factory=list, description="skills (pull, push, place) whose actions are reported with the value 0 where the domain's "
+        "geometry predicts them to drive something into another object"
+    )

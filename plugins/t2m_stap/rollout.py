@@ -19,8 +19,7 @@ import torch
 from t2m_core.domain.observation import FEATURE_HIGH, FEATURE_LOW, STATIC_FEATURES, argument_first_order
 from t2m_core.domain.skills import SkillCall
 from t2m_core.protocols import Skill
-from t2m_stap.sweep_veto import Veto
-from t2m_stap.sweep_veto import sweep_veto as make_sweep_veto
+from t2m_stap.geometric_veto import Veto, geometric_veto
 
 _MID = torch.from_numpy(0.5 * (FEATURE_LOW + FEATURE_HIGH))
 _SPAN = torch.from_numpy(FEATURE_HIGH - FEATURE_LOW)
@@ -35,7 +34,7 @@ class Step:
         order: ``(8,) int64`` argument-first order of the raw rows; inverse: its inverse.
         present: number of present objects (rows 1..present).
         veto: ``None``, or the actions whose value is set to 0 whatever the ensemble says
-            (:mod:`~t2m_stap.sweep_veto`).
+            (:mod:`~t2m_stap.geometric_veto`).
     """
 
     call: SkillCall
@@ -47,10 +46,10 @@ class Step:
 
 
 def prepare_steps(
-    skeleton: Sequence[SkillCall], skills: Mapping[str, Skill], object_names: Sequence[str], *, sweep_veto: bool = False
+    skeleton: Sequence[SkillCall], skills: Mapping[str, Skill], object_names: Sequence[str], *, vetoed: frozenset[str] = frozenset()
 ) -> list[Step]:
-    """Row orders and models of every skill in ``skeleton``; with ``sweep_veto``, the hook sweeps'
-    geometric veto (:func:`~t2m_stap.sweep_veto.sweep_veto`).
+    """Row orders and models of every skill in ``skeleton``; for the skills named in ``vetoed``, the
+    geometric veto of their actions (:func:`~t2m_stap.geometric_veto.geometric_veto`).
 
     Raises:
         KeyError: a skill the library does not have, naming the ones it has.
@@ -61,7 +60,7 @@ def prepare_steps(
             raise KeyError(f"the skill library has no {call.name!r} skill; it has {', '.join(sorted(skills))}")
         row_order = argument_first_order(object_names, call.args)
         order = torch.from_numpy(row_order.order)
-        veto = make_sweep_veto(call, object_names) if sweep_veto else None
+        veto = geometric_veto(call, object_names) if call.name in vetoed else None
         steps.append(Step(call, skills[call.name], order, torch.from_numpy(row_order.inverse), row_order.num_present, veto))
     return steps
 

@@ -11,6 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from t2m_core.domain.geometry import axis_angle_to_quat, yaw_to_quat
+from t2m_core.domain.objects import OBJECTS
 from t2m_core.domain.primitives import (
     FAILURES,
     PRIMITIVES,
@@ -422,3 +423,30 @@ def test_motion_step_validates_its_fields() -> None:
         MotionStep(MotionKind.RELEASE, "release", ee_position=np.zeros(3))
     with pytest.raises(ValueError, match="grasp_object"):
         MotionStep(MotionKind.GRASP, "grasp")
+
+
+def _table_action(x: float, y: float, theta: float = 0.0) -> np.ndarray:
+    """The physical Place action that releases 5 cm above the table at world (x, y), metres."""
+    return np.array([-1.0 + 2.0 * (x - 0.28) / (0.70 - 0.28), -1.0 + 2.0 * (y + 0.45) / 0.90, 0.05, theta])
+
+
+def test_place_in_the_way_sees_the_held_object_set_down_against_another(holding: GeometricState) -> None:
+    # The cyan box stands at (0.6, 0.2); the red box is held centred under the EE.
+    half_widths = (OBJECTS["red_box"].size[1] + OBJECTS["cyan_box"].size[1]) / 2
+    actions = np.array([
+        _table_action(0.6, 0.2),  # on top of it
+        _table_action(0.6, 0.2 + half_widths + 0.005),  # 5 mm beside it: within the 1 cm clearance
+        _table_action(0.6, 0.2 + half_widths + 0.03),  # 3 cm beside it
+        _table_action(0.35, 0.35),  # far from it and from the rack
+    ])
+    assert PLACE.in_the_way(holding, ["red_box", "table"], actions).tolist() == [True, True, False, False]
+    # The held object's offset from the EE turns with the release yaw: held 10 cm ahead of the EE
+    # along x, released with θ = π/2, it lands 10 cm to the side (+y) of the release point.
+    offset = GeometricState(
+        {**holding.objects, "red_box": ObjectPose([0.55, 0.1, 0.37])}, ee_position=np.array([0.45, 0.1, 0.40]), held="red_box"
+    )
+    release = _table_action(0.45, 0.3, theta=math.pi / 2)
+    beside = {**offset.objects, "cyan_box": on_table("cyan_box", 0.45, 0.4)}
+    ahead = {**offset.objects, "cyan_box": on_table("cyan_box", 0.55, 0.3)}
+    assert PLACE.in_the_way(GeometricState(beside, offset.ee_position, held="red_box"), ["red_box", "table"], release[None]).tolist() == [True]
+    assert PLACE.in_the_way(GeometricState(ahead, offset.ee_position, held="red_box"), ["red_box", "table"], release[None]).tolist() == [False]

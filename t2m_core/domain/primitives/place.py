@@ -14,7 +14,17 @@ from t2m_core.domain.constants import (
     TABLE_Z_MAX,
     in_workspace,
 )
-from t2m_core.domain.geometry import is_above, is_upright, object_geometry, quat_yaw, rotate, wrap_angle
+from t2m_core.domain.geometry import (
+    is_above,
+    is_upright,
+    object_geometry,
+    polygon_edges,
+    quat_yaw,
+    rotate,
+    wrap_angle,
+    yaw_to_quat,
+    yawed_footprints,
+)
 from t2m_core.domain.objects import ObjectKind, object_spec
 from t2m_core.domain.primitives.base import (
     SETTLE_TIMEOUT_S,
@@ -27,6 +37,7 @@ from t2m_core.domain.primitives.base import (
     other_objects,
 )
 from t2m_core.domain.primitives.pick import MOVABLE
+from t2m_core.domain.primitives.sweep_screen import TOOL_CLEARANCE, bystanders, comes_near, obstacle_footprints
 from t2m_core.domain.state import GeometricState
 
 MAX_DROP_DISTANCE = 0.05
@@ -68,6 +79,31 @@ class Place(Primitive):
         pose = state.objects[target]
         position = pose.position + rotate(pose.quaternion, np.array([local_xy[0], local_xy[1], z]))
         return position, wrap_angle(quat_yaw(pose.quaternion) + theta)
+
+    def in_the_way(self, state: GeometricState, arguments: Sequence[str], physical: np.ndarray) -> np.ndarray:
+        """``(B,)`` whether each of ``(B, 4)`` physical actions would set the held object down within
+        :data:`~t2m_core.domain.primitives.sweep_screen.TOOL_CLEARANCE` of a bystander's footprint
+        (an object other than the arguments and the table): the object carried rigidly from its
+        pose relative to the EE now to the release pose. A prediction from the domain's geometry,
+        not a result."""
+        obj, target = self.check_arguments(state, arguments)
+        physical = np.atleast_2d(np.asarray(physical, dtype=np.float64))
+        obstacles = obstacle_footprints(bystanders(state, arguments))
+        if len(obstacles) == 0:
+            return np.zeros(len(physical), dtype=bool)
+        rectangle = place_rectangle(target)
+        local_xy = rectangle[0] + (physical[:, :2] + 1.0) / 2.0 * (rectangle[1] - rectangle[0])
+        support = state.objects[target]
+        release = support.position + rotate(support.quaternion, np.column_stack((local_xy, physical[:, 2])))
+        release_yaw = quat_yaw(support.quaternion) + physical[:, 3]
+        ee_yaw = float(quat_yaw(state.ee_quaternion))
+        held = state.objects[obj]
+        offset = rotate(yaw_to_quat(-ee_yaw), held.position - state.ee_position)[:2]
+        cos, sin = np.cos(release_yaw), np.sin(release_yaw)
+        positions = release[:, :2] + np.column_stack((cos * offset[0] - sin * offset[1], sin * offset[0] + cos * offset[1]))
+        yaws = release_yaw + (float(quat_yaw(held.quaternion)) - ee_yaw)
+        footprints = yawed_footprints(object_spec(obj), np.column_stack((positions, release[:, 2])), yaws)  # (B, P, 4, 2)
+        return comes_near(footprints, polygon_edges(footprints), obstacles, TOOL_CLEARANCE)
 
     def precheck(self, state: GeometricState, arguments: Sequence[str], action: np.ndarray) -> str | None:
         obj, target = self.check_arguments(state, arguments)

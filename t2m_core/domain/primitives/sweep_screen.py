@@ -245,13 +245,13 @@ def sweep_disturbs(
     target = translation_hull(prediction.target_start, target_shifts)
     hand = (prediction.ee_path, prediction.ee_path[:, None])  # one segment
     return (
-        _comes_near(*hook, hook_obstacles, TOOL_CLEARANCE)
-        | _comes_near(*target, target_obstacles, TOOL_CLEARANCE)
-        | _comes_near(*hand, hand_obstacles, HAND_CLEARANCE)
+        comes_near(*hook, hook_obstacles, TOOL_CLEARANCE)
+        | comes_near(*target, target_obstacles, TOOL_CLEARANCE)
+        | comes_near(*hand, hand_obstacles, HAND_CLEARANCE)
     )
 
 
-def _comes_near(points: np.ndarray, edges: np.ndarray, obstacles: np.ndarray, clearance: float) -> np.ndarray:
+def comes_near(points: np.ndarray, edges: np.ndarray, obstacles: np.ndarray, clearance: float) -> np.ndarray:
     """``(B,)`` whether any region of a draw (``(B, ..., M, 2)`` points, ``(B, ..., S, 2, 2)`` edges, as
     :func:`~t2m_core.domain.geometry.hull_distances` takes them) comes within ``clearance`` metres of
     any ``(N, K, 2)`` obstacle."""

@@ -147,7 +147,7 @@ def _blocked_pull():
     return state, encode_observation(state, state.object_names), state.object_names, through
 
 
-def test_the_sweep_veto_moves_the_plan_off_a_pull_into_a_bystander() -> None:
+def test_the_veto_moves_the_plan_off_a_pull_into_a_bystander() -> None:
     from tests.domain.test_sweep_screen import PULL, PULL_ARGS
 
     state, observation, names, through = _blocked_pull()
@@ -157,14 +157,23 @@ def test_the_sweep_veto_moves_the_plan_off_a_pull_into_a_bystander() -> None:
     plain = CrossEntropyMethod(CEMOptions(population=500)).plan(observation, [call], skills, names)
     np.testing.assert_allclose(plain.actions[0], through, atol=0.05)
     assert plain.values[0] > 0.95
-    vetoed = CrossEntropyMethod(CEMOptions(population=500, sweep_veto=True)).plan(observation, [call], skills, names)
+    vetoed = CrossEntropyMethod(CEMOptions(population=500, veto=["pull"])).plan(observation, [call], skills, names)
     assert not PULL.in_the_way(state, PULL_ARGS, PULL.to_physical(vetoed.actions[0])[None])[0]
     expected = 0.98 * np.exp(-np.sum((vetoed.actions[0] - through) ** 2) / 0.1)  # the toy's value there, not vetoed
     assert 0.05 < vetoed.values[0] < 0.9 and vetoed.values[0] == pytest.approx(expected, rel=1e-4)
     # The policy alone reports its action's value as 0, and a skill without a sweep is left alone.
-    assert PolicyRollout(PolicyOptions(sweep_veto=True)).plan(observation, [call], skills, names).p_success == 0.0
+    assert PolicyRollout(PolicyOptions(veto=["pull"])).plan(observation, [call], skills, names).p_success == 0.0
     assert PolicyRollout().plan(observation, [call], skills, names).p_success > 0.95
     pick = {"pick": ToySkill("pick")}
-    a = CrossEntropyMethod(CEMOptions(population=300, sweep_veto=True)).plan(OBSERVATION, [PICK], pick, OBJECTS)
+    a = CrossEntropyMethod(CEMOptions(population=300, veto=["pull", "push", "place"])).plan(OBSERVATION, [PICK], pick, OBJECTS)
     b = CrossEntropyMethod(CEMOptions(population=300)).plan(OBSERVATION, [PICK], pick, OBJECTS)
     np.testing.assert_array_equal(a.actions, b.actions)
+
+
+
+def test_the_veto_option_takes_the_skills_that_have_a_prediction() -> None:
+    from pydantic import ValidationError
+
+    assert CEMOptions().veto == [] and CEMOptions(veto=["pull", "place"]).veto == ["pull", "place"]
+    with pytest.raises(ValidationError, match="pull"):
+        CEMOptions(veto=["pick"])  # Pick has no prediction of its own
