@@ -10,7 +10,8 @@ highest: their data's sweeps were screened, and their placements rarely crowded.
 A prediction reads one geometric state per step. At a plan's first step that is the observed
 state; at later steps the trajectories' predicted states differ a little, and the veto reads their
 element-wise median (the bystanders, which the veto is about, move little in the predictions of
-steps that do not touch them).
+steps that do not touch them). The median is taken over one batch of rolled-out trajectories, so
+with a population above the planner's ``chunk_size`` a later step's veto reads one state per chunk.
 """
 
 from __future__ import annotations
