@@ -56,6 +56,16 @@ def place_rectangle(target: str) -> np.ndarray:
     return np.array([low[:2], high[:2]])
 
 
+def release_poses(state: GeometricState, target: str, physical: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``((B, 3) positions in metres, (B,) yaws in radians)`` of the EE at the release of ``(B, 4)``
+    physical Place actions on ``target``, world frame."""
+    rectangle = place_rectangle(target)
+    local_xy = rectangle[0] + (physical[:, :2] + 1.0) / 2.0 * (rectangle[1] - rectangle[0])
+    pose = state.objects[target]
+    positions = pose.position + rotate(pose.quaternion, np.column_stack((local_xy, physical[:, 2])))
+    return positions, wrap_angle(quat_yaw(pose.quaternion) + physical[:, 3])
+
+
 class Place(Primitive):
     """Release the held ``obj`` above ``target``.
 
@@ -72,13 +82,8 @@ class Place(Primitive):
 
     def release_pose(self, state: GeometricState, target: str, action: np.ndarray) -> tuple[np.ndarray, float]:
         """``((3,) position in metres, yaw in radians)`` of the EE at the release, world frame."""
-        x, y, z, theta = self.to_physical(action)
-        rectangle = place_rectangle(target)
-        fraction = (np.array([x, y]) + 1.0) / 2.0
-        local_xy = rectangle[0] + fraction * (rectangle[1] - rectangle[0])
-        pose = state.objects[target]
-        position = pose.position + rotate(pose.quaternion, np.array([local_xy[0], local_xy[1], z]))
-        return position, wrap_angle(quat_yaw(pose.quaternion) + theta)
+        positions, yaws = release_poses(state, target, self.to_physical(action)[None])
+        return positions[0], float(yaws[0])
 
     def in_the_way(self, state: GeometricState, arguments: Sequence[str], physical: np.ndarray) -> np.ndarray:
         """``(B,)`` whether each of ``(B, 4)`` physical actions would set the held object down within
@@ -91,11 +96,7 @@ class Place(Primitive):
         obstacles = obstacle_footprints(bystanders(state, arguments))
         if len(obstacles) == 0:
             return np.zeros(len(physical), dtype=bool)
-        rectangle = place_rectangle(target)
-        local_xy = rectangle[0] + (physical[:, :2] + 1.0) / 2.0 * (rectangle[1] - rectangle[0])
-        support = state.objects[target]
-        release = support.position + rotate(support.quaternion, np.column_stack((local_xy, physical[:, 2])))
-        release_yaw = quat_yaw(support.quaternion) + physical[:, 3]
+        release, release_yaw = release_poses(state, target, physical)
         ee_yaw = float(quat_yaw(state.ee_quaternion))
         held = state.objects[obj]
         offset = rotate(yaw_to_quat(-ee_yaw), held.position - state.ee_position)[:2]
