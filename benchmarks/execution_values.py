@@ -109,8 +109,8 @@ def revalue(directories: list[Path], checkpoints: list[Path], geometric_predicti
                 members = np.asarray(libraries[block.name, directory][call.name].q_values(state, action))
                 value = float(np.clip(members.min(), 0.0, 1.0))
                 steps[str(directory)].setdefault(call.name, []).append((value, bool(record["success"]), record.get("failure")))
-            primitive = get_primitive(call.name)
-            if geometric_prediction and hasattr(primitive, "in_the_way"):
+            primitive = get_primitive(call.name) if geometric_prediction else None
+            if primitive is not None and hasattr(primitive, "in_the_way"):
                 physical = primitive.to_physical(np.asarray(record["action"], dtype=np.float64))[None]
                 blocked = bool(primitive.in_the_way(replay.simulator.geometric_state(), call.args, physical)[0])
                 steps[GEOMETRIC_PREDICTION].setdefault(call.name, []).append((0.0 if blocked else 1.0, bool(record["success"]), record.get("failure")))

@@ -35,7 +35,7 @@ def geometric_veto(call: SkillCall, object_names: Sequence[str]) -> Veto:
     names = tuple(object_names)
 
     def veto(observations: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
-        reference = observations.median(dim=0).values if observations.shape[0] > 1 else observations[0]
+        reference = observations.median(dim=0).values  # the observed state itself at a plan's first step
         state = decode_observation(reference.numpy(), names)
         physical = primitive.to_physical(actions.numpy())
         return torch.from_numpy(np.asarray(primitive.in_the_way(state, call.args, physical), dtype=bool))
