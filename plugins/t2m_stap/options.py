@@ -6,7 +6,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-VetoSkill = Literal["pull", "push", "place"]
+VetoSkill = Literal["pick", "pull", "push", "place"]
 """The skills whose primitives predict from the domain's geometry when an action drives something into
 another object (:mod:`t2m_stap.geometric_veto`)."""
 
@@ -26,9 +26,9 @@ class SamplingOptions(BaseModel):
     )
     ood_penalty: bool = Field(False, description="optimise the OOD-masked product instead of reporting the flags only")
     veto: list[VetoSkill] = Field(
-        default_factory=list, description="skills (pull, push, place) whose actions get the value 0 where the domain's geometry "
-        "predicts them to drive the hook, the box or the held object into another object (a deviation: the method judges with "
-        "the ensembles alone)"
+        default_factory=list, description="skills (pick, pull, push, place) whose actions get the value 0 where the domain's geometry "
+        "predicts them to drive the fingers, the hook, the box or the held object into another object (a deviation: the method "
+        "judges with the ensembles alone)"
     )
 
     def samples(self, horizon: int) -> int:
@@ -81,6 +81,6 @@ class PolicyOptions(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     veto: list[VetoSkill] = Field(
-        default_factory=list, description="skills (pull, push, place) whose actions are reported with the value 0 where the domain's "
+        default_factory=list, description="skills (pick, pull, push, place) whose actions are reported with the value 0 where the domain's "
         "geometry predicts them to drive something into another object"
     )

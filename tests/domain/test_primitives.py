@@ -450,3 +450,33 @@ def test_place_in_the_way_sees_the_held_object_set_down_against_another(holding:
     ahead = {**offset.objects, "cyan_box": on_table("cyan_box", 0.55, 0.3)}
     assert PLACE.in_the_way(GeometricState(beside, offset.ee_position, held="red_box"), ["red_box", "table"], release[None]).tolist() == [True]
     assert PLACE.in_the_way(GeometricState(ahead, offset.ee_position, held="red_box"), ["red_box", "table"], release[None]).tolist() == [False]
+
+
+def _grasp(theta: float = 0.0, z: float = 0.0) -> np.ndarray:
+    """The physical Pick action of a grasp at the object's centre, ``z`` metres up, jaw yawed ``theta``."""
+    return np.array([0.0, 0.0, z, theta])
+
+
+def test_pick_in_the_way_sees_fingers_on_the_rack_plate_a_neighbour_or_the_table() -> None:
+    # The rack's plate spans y <= -0.22 at x in [0.28, 0.60]; the red box stands 1.5 cm from its edge.
+    # At θ = 0 the jaw opens along world y and the outer finger (y in [-0.246, -0.220]) lands under
+    # the plate's edge; at θ = π/2 it opens along x and both fingers stay 3 cm from the plate.
+    beside_rack = scene(rack=RACK_IN_WORKSPACE, red_box=on_table("red_box", 0.5, -0.18))
+    grasps = np.array([_grasp(0.0), _grasp(math.pi / 2)])
+    assert PICK.in_the_way(beside_rack, ["red_box"], grasps).tolist() == [True, False]
+    # A neighbour along the jaw: a finger reaches 66.4 mm from the grasp, the blue box's near face
+    # stands 25 mm from its centre.
+    def neighbour(gap: float) -> GeometricState:
+        return scene(red_box=on_table("red_box", 0.5, 0.1), blue_box=on_table("blue_box", 0.5, 0.1 + 0.0664 + 0.025 + gap))
+
+    assert PICK.in_the_way(neighbour(0.003), ["red_box"], grasps).tolist() == [True, False]
+    assert PICK.in_the_way(neighbour(0.008), ["red_box"], grasps).tolist() == [False, False]
+    # The hook lies 2 cm high: a grasp 1.5 cm below its centre puts the fingertips (8 mm under the EE)
+    # into the table; one at its centre does not.
+    hook = scene(hook=on_table("hook", 0.5, 0.1))
+    assert OBJECTS["hook"].size[2] == pytest.approx(0.04)
+    assert PICK.in_the_way(hook, ["hook"], np.array([_grasp(z=-0.015), _grasp(z=0.0)])).tolist() == [True, False]
+    # Beyond the workspace every grasp is refused, as the precheck refuses it.
+    far = scene(red_box=on_table("red_box", 0.72, 0.0))
+    assert PICK.precheck(far, ["red_box"], _grasp()) == "not_in_workspace"
+    assert PICK.in_the_way(far, ["red_box"], grasps).tolist() == [True, True]

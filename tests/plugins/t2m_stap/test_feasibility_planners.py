@@ -174,6 +174,6 @@ def test_the_veto_moves_the_plan_off_a_pull_into_a_bystander() -> None:
 def test_the_veto_option_takes_the_skills_that_have_a_prediction() -> None:
     from pydantic import ValidationError
 
-    assert CEMOptions().veto == [] and CEMOptions(veto=["pull", "place"]).veto == ["pull", "place"]
+    assert CEMOptions().veto == [] and CEMOptions(veto=["pick", "pull", "place"]).veto == ["pick", "pull", "place"]
     with pytest.raises(ValidationError, match="pull"):
-        CEMOptions(veto=["pick"])  # Pick has no prediction of its own
+        CEMOptions(veto=["stop"])  # stop has no prediction of its own
