@@ -88,16 +88,15 @@ class Pick(Primitive):
         x, y = fingers[..., 0], fingers[..., 1]
         footprints = np.stack((cos * x - sin * y, sin * x + cos * y), axis=-1) + grasps[:, None, None, :2]  # (B, 2, 4, 2)
         edges = polygon_edges(footprints)
-        for kind, clearance in FINGER_CLEARANCE.items():
-            parts = [
-                footprint
-                for name, other in state.objects.items()
-                if name != obj and object_spec(name).kind is kind
-                for footprint, corners in zip(*_parts(name, other), strict=True)
-                if corners[:, 2].max() > tips.min()
-            ]
-            if parts:
-                blocked |= comes_near(footprints, edges, pad_polygons(parts), clearance)
+        parts: dict[ObjectKind, list[np.ndarray]] = {kind: [] for kind in FINGER_CLEARANCE}
+        for name, other in state.objects.items():
+            if name != obj and object_spec(name).kind in parts:
+                geometry = object_geometry(name, other)
+                rising = (corners[:, 2].max() > tips.min() for corners in geometry.part_corners)
+                parts[geometry.spec.kind] += [footprint for footprint, rises in zip(geometry.footprints, rising, strict=True) if rises]
+        for kind, footprints_of_kind in parts.items():
+            if footprints_of_kind:
+                blocked |= comes_near(footprints, edges, pad_polygons(footprints_of_kind), FINGER_CLEARANCE[kind])
         return blocked
 
     def precheck(self, state: GeometricState, arguments: Sequence[str], action: np.ndarray) -> str | None:
@@ -150,8 +149,3 @@ class Pick(Primitive):
             action[3] = 0.5 * np.pi
         return action
 
-
-def _parts(name: str, pose) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
-    """The ``(K, 2)`` footprints and ``(P, 8, 3)`` corners of ``name``'s convex parts in ``pose``."""
-    geometry = object_geometry(name, pose)
-    return geometry.footprints, geometry.part_corners

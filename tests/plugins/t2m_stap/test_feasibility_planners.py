@@ -171,6 +171,26 @@ def test_the_veto_moves_the_plan_off_a_pull_into_a_bystander() -> None:
 
 
 
+def test_the_veto_turns_a_grasp_off_the_rack_plate() -> None:
+    # The red box stands 1.5 cm from the rack's plate; the toy's best grasp opens the jaw towards it.
+    from t2m_core.domain.observation import encode_observation
+    from t2m_core.domain.primitives import PRIMITIVES
+    from tests.domain.scenes import RACK_IN_WORKSPACE, on_table, scene
+
+    pick = PRIMITIVES["pick"]
+    state = scene(rack=RACK_IN_WORKSPACE, red_box=on_table("red_box", 0.5, -0.18))
+    names, call = state.object_names, SkillCall("pick", ("red_box",))
+    towards = pick.to_normalized(np.zeros(4))
+    assert pick.in_the_way(state, call.args, np.zeros((1, 4)))[0]
+    skills = {"pick": ToySkill("pick", target=tuple(towards), policy_action=tuple(towards))}
+    observation = encode_observation(state, names)
+    plain = CrossEntropyMethod(CEMOptions(population=500)).plan(observation, [call], skills, names)
+    assert pick.in_the_way(state, call.args, pick.to_physical(plain.actions[0])[None])[0]
+    vetoed = CrossEntropyMethod(CEMOptions(population=500, veto=["pick"])).plan(observation, [call], skills, names)
+    assert not pick.in_the_way(state, call.args, pick.to_physical(vetoed.actions[0])[None])[0]
+    assert 0.05 < vetoed.values[0] < plain.values[0]
+
+
 def test_the_veto_option_takes_the_skills_that_have_a_prediction() -> None:
     from pydantic import ValidationError
 
