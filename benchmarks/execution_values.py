@@ -16,9 +16,10 @@ With ``--checkpoints DIR`` (repeatable), every episode is also replayed in its r
 loaded from ``DIR``: would another set of checkpoints have told the failures from the successes
 better? (The steps are the ones the recorded library chose; a library valued on them is judged
 where that library's planner went, not where its own would go.) ``--geometric-prediction`` does the same
-for the domain's geometric prediction of a Pull or Push that sweeps into another object and of a
-Place that sets its object down against one (the planners' ``veto`` option): its
-value is 0 for such a step, 1 otherwise.
+for the domain's geometric prediction of a Pick whose fingers land on another object or the table
+(or whose object lies outside the workspace), of a Pull or Push that sweeps into another object and
+of a Place that sets its object down against one (the planners' ``veto`` option): its value is 0 for
+such a step, 1 otherwise.
 """
 
 from __future__ import annotations
@@ -145,7 +146,7 @@ def main() -> None:
     parser.add_argument("--checkpoints", action="append", type=Path, default=[],
                         help="also value every executed step again with the skill library loaded from this checkpoints directory (repeatable)")
     parser.add_argument("--geometric-prediction", action="store_true",
-                        help="also judge every executed Pull, Push and Place by the domain's geometric prediction (0: into another object)")
+                        help="also judge every executed Pick, Pull, Push and Place by the domain's geometric prediction (0: into another object)")
     parser.add_argument("--json", dest="json_out", default=None)
     args = parser.parse_args()
     directories = episode_directories(args.directories)
