@@ -36,7 +36,7 @@ and finger body: from the pad's inner face at the 40 mm half-jaw to the body's o
 finger's is mirrored in y (the jaw closes along the EE's y)."""
 
 FINGERTIP_BELOW_EE = 0.008
-"""m: the fingertips lie this far below the EE point (docs/guide/world.md#the-robot)."""
+"""m: the fingertips lie this far below the EE point (:mod:`t2m_core.simulation.robot`)."""
 
 FINGER_CLEARANCE = {ObjectKind.BOX: 0.005, ObjectKind.HOOK: 0.005, ObjectKind.RACK: 0.02}
 """m, by kind of bystander: a grasp is predicted to strike one when an open finger's footprint comes
@@ -148,4 +148,3 @@ class Pick(Primitive):
         if spec.kind is ObjectKind.BOX and spec.size[0] == spec.size[1] and rng.random() < 0.5:
             action[3] = 0.5 * np.pi
         return action
-
