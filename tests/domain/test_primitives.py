@@ -436,10 +436,14 @@ def test_place_in_the_way_sees_the_held_object_set_down_against_another(holding:
     actions = np.array([
         _table_action(0.6, 0.2),  # on top of it
         _table_action(0.6, 0.2 + half_widths + 0.005),  # 5 mm beside it: within the 1 cm clearance
-        _table_action(0.6, 0.2 + half_widths + 0.03),  # 3 cm beside it
+        _table_action(0.6, 0.2 + half_widths + 0.03, theta=math.pi / 2),  # 3 cm beside it, the jaw across
         _table_action(0.35, 0.35),  # far from it and from the rack
     ])
     assert PLACE.in_the_way(holding, ["red_box", "table"], actions).tolist() == [True, True, False, False]
+    # The fingers closed on the 50 mm box reach 26.4 mm beyond its faces along the jaw (world y at
+    # θ = 0): 3 cm beside the cyan box along the jaw they come within 5 mm of it, 4.5 cm beside they do not.
+    along = np.array([_table_action(0.6, 0.2 + half_widths + gap) for gap in (0.03, 0.045)])
+    assert PLACE.in_the_way(holding, ["red_box", "table"], along).tolist() == [True, False]
     # The held object's offset from the EE turns with the release yaw: held 10 cm ahead of the EE
     # along x, released with θ = π/2, it lands 10 cm to the side (+y) of the release point.
     offset = GeometricState(
@@ -480,3 +484,18 @@ def test_pick_in_the_way_sees_fingers_on_the_rack_plate_a_neighbour_or_the_table
     far = scene(red_box=on_table("red_box", 0.72, 0.0))
     assert PICK.precheck(far, ["red_box"], _grasp()) == "not_in_workspace"
     assert PICK.in_the_way(far, ["red_box"], grasps).tolist() == [True, True]
+
+
+def test_finger_footprints_and_the_opening_on_a_held_box(holding: GeometricState) -> None:
+    from t2m_core.domain.primitives.fingers import finger_footprints, held_opening
+
+    # Open jaw at yaw 0: the pads' inner faces 40 mm either side along world y, the bodies' outer
+    # faces 66.4 mm out, 21 mm wide along x; at yaw π/2 the same along x.
+    left, right = finger_footprints(np.array([[0.5, 0.1]]), np.array([0.0]), 0.04)[0]
+    np.testing.assert_allclose(left.min(axis=0), [0.4895, 0.14], atol=1e-9)
+    np.testing.assert_allclose(left.max(axis=0), [0.5105, 0.1664], atol=1e-9)
+    np.testing.assert_allclose(right.min(axis=0), [0.4895, 0.0336], atol=1e-9)
+    turned = finger_footprints(np.array([[0.5, 0.1]]), np.array([math.pi / 2]), 0.04)[0]
+    np.testing.assert_allclose(turned[0].min(axis=0), [0.5 - 0.0664, 0.0895], atol=1e-9)
+    # Closed on the 50 mm red box centred under the EE, the pads stand 25 mm either side.
+    assert held_opening(holding, "red_box") == pytest.approx(0.025)

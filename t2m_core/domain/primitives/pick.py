@@ -7,7 +7,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from t2m_core.domain.constants import TABLE_Z_MAX, in_workspace
-from t2m_core.domain.geometry import object_geometry, pad_polygons, polygon_edges, quat_yaw, rotate, wrap_angle
+from t2m_core.domain.geometry import quat_yaw, rotate, wrap_angle
 from t2m_core.domain.objects import ObjectKind, object_spec
 from t2m_core.domain.primitives.base import (
     SETTLE_TIMEOUT_S,
@@ -17,32 +17,11 @@ from t2m_core.domain.primitives.base import (
     lift_position,
     other_objects,
 )
-from t2m_core.domain.primitives.sweep_screen import comes_near
+from t2m_core.domain.primitives.fingers import FINGERTIP_BELOW_EE, finger_footprints, fingers_strike
 from t2m_core.domain.state import GeometricState
-from t2m_core.simulation.robot import FINGER_BODY_CENTER, FINGER_BODY_HALF, FINGER_OPEN, PAD_HALF
+from t2m_core.simulation.robot import FINGER_OPEN
 
 MOVABLE = frozenset({ObjectKind.BOX, ObjectKind.HOOK})
-
-FINGER_FOOTPRINT = np.array(
-    [
-        [-PAD_HALF[0], FINGER_OPEN],
-        [PAD_HALF[0], FINGER_OPEN],
-        [PAD_HALF[0], FINGER_OPEN + FINGER_BODY_CENTER[1] + FINGER_BODY_HALF[1]],
-        [-PAD_HALF[0], FINGER_OPEN + FINGER_BODY_CENTER[1] + FINGER_BODY_HALF[1]],
-    ]
-)
-"""``(4, 2)`` counter-clockwise xy footprint (m, EE frame) of the left finger of the open gripper, pad
-and finger body: from the pad's inner face at the 40 mm half-jaw to the body's outer face. The right
-finger's is mirrored in y (the jaw closes along the EE's y)."""
-
-FINGERTIP_BELOW_EE = 0.008
-"""m: the fingertips lie this far below the EE point (:mod:`t2m_core.simulation.robot`)."""
-
-FINGER_CLEARANCE = {ObjectKind.BOX: 0.005, ObjectKind.HOOK: 0.005, ObjectKind.RACK: 0.02}
-"""m, by kind of bystander: a grasp is predicted to strike one when an open finger's footprint comes
-this close to a part of it that rises above the fingertips. Measured on 250 planner-proposed grasps
-in the task scenes: no successful grasp came within 3 cm of the rack, 13 of 24 collisions within
-2 cm of it (the plate's edge, which the fingers pass on their way down)."""
 
 TABLE_MARGIN = 0.001
 """m: a grasp whose fingertips would end lower than this above the table is predicted to strike it."""
@@ -71,9 +50,10 @@ class Pick(Primitive):
     def in_the_way(self, state: GeometricState, arguments: Sequence[str], physical: np.ndarray) -> np.ndarray:
         """``(B,)`` whether each of ``(B, 4)`` physical grasps is predicted to fail before it closes:
         the object outside the workspace (the precheck refuses every grasp), fingertips at the table,
-        or an open finger within :data:`FINGER_CLEARANCE` of a part of a bystander (an object other
-        than the argument and the table) that rises above the fingertips, such as the rack's plate
-        beside a box. A prediction from the domain's geometry, not a result."""
+        or an open finger near a part of a bystander (an object other than the argument and the table)
+        that rises above the fingertips, such as the rack's plate beside a box
+        (:func:`~t2m_core.domain.primitives.fingers.fingers_strike`). A prediction from the domain's
+        geometry, not a result."""
         (obj,) = self.check_arguments(state, arguments)
         physical = np.atleast_2d(np.asarray(physical, dtype=np.float64))
         if self.precheck(state, arguments, physical[0]) is not None:
@@ -81,23 +61,9 @@ class Pick(Primitive):
         pose = state.objects[obj]
         grasps = pose.position + rotate(pose.quaternion, physical[:, :3])  # (B, 3)
         tips = grasps[:, 2] - FINGERTIP_BELOW_EE
-        blocked = tips < TABLE_Z_MAX + TABLE_MARGIN
-        fingers = np.stack((FINGER_FOOTPRINT, FINGER_FOOTPRINT[::-1] * np.array([1.0, -1.0])))  # (2, 4, 2), both ccw
         yaws = float(quat_yaw(pose.quaternion)) + physical[:, 3]
-        cos, sin = np.cos(yaws)[:, None, None], np.sin(yaws)[:, None, None]
-        x, y = fingers[..., 0], fingers[..., 1]
-        footprints = np.stack((cos * x - sin * y, sin * x + cos * y), axis=-1) + grasps[:, None, None, :2]  # (B, 2, 4, 2)
-        edges = polygon_edges(footprints)
-        parts: dict[ObjectKind, list[np.ndarray]] = {kind: [] for kind in FINGER_CLEARANCE}
-        for name, other in state.objects.items():
-            if name != obj and object_spec(name).kind in parts:
-                geometry = object_geometry(name, other)
-                rising = (corners[:, 2].max() > tips.min() for corners in geometry.part_corners)
-                parts[geometry.spec.kind] += [footprint for footprint, rises in zip(geometry.footprints, rising, strict=True) if rises]
-        for kind, footprints_of_kind in parts.items():
-            if footprints_of_kind:
-                blocked |= comes_near(footprints, edges, pad_polygons(footprints_of_kind), FINGER_CLEARANCE[kind])
-        return blocked
+        struck = fingers_strike(state, (obj,), finger_footprints(grasps, yaws, FINGER_OPEN), tips)
+        return struck | (tips < TABLE_Z_MAX + TABLE_MARGIN)
 
     def precheck(self, state: GeometricState, arguments: Sequence[str], action: np.ndarray) -> str | None:
         (obj,) = self.check_arguments(state, arguments)

@@ -36,6 +36,7 @@ from t2m_core.domain.primitives.base import (
     lift_position,
     other_objects,
 )
+from t2m_core.domain.primitives.fingers import FINGERTIP_BELOW_EE, finger_footprints, fingers_strike, held_opening
 from t2m_core.domain.primitives.pick import MOVABLE
 from t2m_core.domain.primitives.sweep_screen import TOOL_CLEARANCE, bystanders, comes_near, obstacle_footprints
 from t2m_core.domain.state import GeometricState
@@ -88,9 +89,10 @@ class Place(Primitive):
     def in_the_way(self, state: GeometricState, arguments: Sequence[str], physical: np.ndarray) -> np.ndarray:
         """``(B,)`` whether each of ``(B, 4)`` physical actions would set the held object down within
         :data:`~t2m_core.domain.primitives.sweep_screen.TOOL_CLEARANCE` of a bystander's footprint
-        (an object other than the arguments and the table): the object carried rigidly from its
-        pose relative to the EE now to the release pose. A prediction from the domain's geometry,
-        not a result."""
+        (an object other than the arguments and the table), the object carried rigidly from its
+        pose relative to the EE now to the release pose, or bring the fingers closed on it down on
+        a bystander (:func:`~t2m_core.domain.primitives.fingers.fingers_strike`). A prediction from
+        the domain's geometry, not a result."""
         obj, target = self.check_arguments(state, arguments)
         physical = np.atleast_2d(np.asarray(physical, dtype=np.float64))
         obstacles = obstacle_footprints(bystanders(state, arguments))
@@ -104,7 +106,9 @@ class Place(Primitive):
         positions = release[:, :2] + np.column_stack((cos * offset[0] - sin * offset[1], sin * offset[0] + cos * offset[1]))
         yaws = release_yaw + (float(quat_yaw(held.quaternion)) - ee_yaw)
         footprints = yawed_footprints(object_spec(obj), np.column_stack((positions, release[:, 2])), yaws)  # (B, P, 4, 2)
-        return comes_near(footprints, polygon_edges(footprints), obstacles, TOOL_CLEARANCE)
+        fingers = finger_footprints(release, release_yaw, held_opening(state, obj))
+        struck = fingers_strike(state, arguments, fingers, release[:, 2] - FINGERTIP_BELOW_EE)
+        return struck | comes_near(footprints, polygon_edges(footprints), obstacles, TOOL_CLEARANCE)
 
     def precheck(self, state: GeometricState, arguments: Sequence[str], action: np.ndarray) -> str | None:
         obj, target = self.check_arguments(state, arguments)
