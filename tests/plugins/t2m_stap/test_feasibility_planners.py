@@ -37,7 +37,7 @@ def test_every_planner_conforms(name: str) -> None:
 def test_cem_finds_the_best_action_that_the_policy_misses() -> None:
     skills = {"pick": ToySkill("pick", target=(0.6, -0.4, 0.2, 0.0))}
     policy = PolicyRollout().plan(OBSERVATION, [PICK], skills, OBJECTS)
-    cem = CrossEntropyMethod(CEMOptions(population=2000)).plan(OBSERVATION, [PICK], skills, OBJECTS)
+    cem = CrossEntropyMethod(CEMOptions(population=2000, veto=[])).plan(OBSERVATION, [PICK], skills, OBJECTS)  # the toy geometry aside
     assert policy.p_success < 0.05
     np.testing.assert_allclose(cem.actions[0], (0.6, -0.4, 0.2, 0.0), atol=0.05)
     assert cem.p_success > 0.95
@@ -75,7 +75,7 @@ def test_the_returned_plan_carries_its_rollout() -> None:
 
 def test_an_ood_step_zeroes_the_plan_but_not_the_optimisation_by_default() -> None:
     skills = {"pick": ToySkill("pick", ood_threshold=1e-6)}  # the toy members always disagree a little
-    result = CrossEntropyMethod(CEMOptions(population=500)).plan(OBSERVATION, [PICK], skills, OBJECTS)
+    result = CrossEntropyMethod(CEMOptions(population=500, veto=[])).plan(OBSERVATION, [PICK], skills, OBJECTS)
     assert result.ood.all() and result.p_success == 0.0
     assert result.values[0] > 0.9  # the flag was applied after optimising, not inside it
 
@@ -154,7 +154,7 @@ def test_the_veto_moves_the_plan_off_a_pull_into_a_bystander() -> None:
     skills = {"pull": ToySkill("pull", target=tuple(through), policy_action=tuple(through))}
     call = SkillCall("pull", PULL_ARGS)
     assert PULL.in_the_way(state, PULL_ARGS, PULL.to_physical(through)[None])[0]  # the toy's best action hits the red box
-    plain = CrossEntropyMethod(CEMOptions(population=500)).plan(observation, [call], skills, names)
+    plain = CrossEntropyMethod(CEMOptions(population=500, veto=[])).plan(observation, [call], skills, names)
     np.testing.assert_allclose(plain.actions[0], through, atol=0.05)
     assert plain.values[0] > 0.95
     vetoed = CrossEntropyMethod(CEMOptions(population=500, veto=["pull"])).plan(observation, [call], skills, names)
@@ -166,7 +166,7 @@ def test_the_veto_moves_the_plan_off_a_pull_into_a_bystander() -> None:
     assert PolicyRollout().plan(observation, [call], skills, names).p_success > 0.95
     pick = {"pick": ToySkill("pick")}
     a = CrossEntropyMethod(CEMOptions(population=300, veto=["pull", "push", "place"])).plan(OBSERVATION, [PICK], pick, OBJECTS)
-    b = CrossEntropyMethod(CEMOptions(population=300)).plan(OBSERVATION, [PICK], pick, OBJECTS)
+    b = CrossEntropyMethod(CEMOptions(population=300, veto=[])).plan(OBSERVATION, [PICK], pick, OBJECTS)
     np.testing.assert_array_equal(a.actions, b.actions)
 
 
@@ -184,7 +184,7 @@ def test_the_veto_turns_a_grasp_off_the_rack_plate() -> None:
     assert pick.in_the_way(state, call.args, np.zeros((1, 4)))[0]
     skills = {"pick": ToySkill("pick", target=tuple(towards), policy_action=tuple(towards))}
     observation = encode_observation(state, names)
-    plain = CrossEntropyMethod(CEMOptions(population=500)).plan(observation, [call], skills, names)
+    plain = CrossEntropyMethod(CEMOptions(population=500, veto=[])).plan(observation, [call], skills, names)
     assert pick.in_the_way(state, call.args, pick.to_physical(plain.actions[0])[None])[0]
     vetoed = CrossEntropyMethod(CEMOptions(population=500, veto=["pick"])).plan(observation, [call], skills, names)
     assert not pick.in_the_way(state, call.args, pick.to_physical(vetoed.actions[0])[None])[0]
@@ -194,6 +194,7 @@ def test_the_veto_turns_a_grasp_off_the_rack_plate() -> None:
 def test_the_veto_option_takes_the_skills_that_have_a_prediction() -> None:
     from pydantic import ValidationError
 
-    assert CEMOptions().veto == [] and CEMOptions(veto=["pick", "pull", "place"]).veto == ["pick", "pull", "place"]
+    assert CEMOptions().veto == ["pick", "pull"] and CEMOptions(veto=["pick", "pull", "place"]).veto == ["pick", "pull", "place"]
+    assert CEMOptions(veto=[]).veto == [] and RandomCEMOptions().veto == [] and PolicyOptions().veto == []  # PolicyCEM's default only
     with pytest.raises(ValidationError, match="pull"):
         CEMOptions(veto=["stop"])  # stop has no prediction of its own
