@@ -53,9 +53,8 @@ class CEMOptions(SamplingOptions):
 
     population: int = Field(CPU_POPULATION, ge=1, description="trajectories sampled per iteration (the paper: 10 000)")
     veto: list[VetoSkill] = Field(
-        default_factory=lambda: list(DEFAULT_VETO), description="skills (pick, pull, push, place) whose actions get the value 0 "
-        "where the domain's geometry predicts them to drive the fingers, the hook, the box or the held object into another "
-        "object (a deviation, on grasps and pulls by default: the method judges with the ensembles alone; [] turns it off)"
+        default_factory=lambda: list(DEFAULT_VETO),
+        description="as every sampling planner's, here on grasps and pulls by default ([]: the published judgement by the ensembles alone)",
     )
     iterations: int = Field(10, ge=1, description="CEM iterations")
     elites: int = Field(10, ge=1, description="elite trajectories kept per iteration")

@@ -56,7 +56,7 @@ class Pick(Primitive):
         geometry, not a result."""
         (obj,) = self.check_arguments(state, arguments)
         physical = np.atleast_2d(np.asarray(physical, dtype=np.float64))
-        if self.precheck(state, arguments, physical[0]) is not None:
+        if self.precheck(state, arguments, physical[0]) is not None:  # the precheck reads the object, not the action
             return np.ones(len(physical), dtype=bool)
         pose = state.objects[obj]
         grasps = pose.position + rotate(pose.quaternion, physical[:, :3])  # (B, 3)
