@@ -455,9 +455,14 @@ def yawed_footprints(spec: ObjectSpec, positions: np.ndarray, yaws: np.ndarray) 
     """``(..., P, 4, 2)`` counter-clockwise xy footprints of the convex parts of an object turned only
     about z, at ``(..., 3)`` positions (metres) with ``(...)`` yaws (radians): the footprints of
     :func:`object_geometry` for a batch of upright poses, without a hull per pose."""
-    corners = _local_part_footprints(spec)  # (P, 4, 2)
+    return yawed_polygons(_local_part_footprints(spec), positions, yaws)
+
+
+def yawed_polygons(local: np.ndarray, positions: np.ndarray, yaws: np.ndarray) -> np.ndarray:
+    """``(..., P, K, 2)`` world xy of ``(P, K, 2)`` or ``(..., P, K, 2)`` polygons given in a frame at
+    ``(..., 2+)`` positions (metres, xy used) turned by ``(...)`` yaws (radians) about z."""
     cos, sin = np.cos(yaws)[..., None, None], np.sin(yaws)[..., None, None]
-    x, y = corners[..., 0], corners[..., 1]
+    x, y = local[..., 0], local[..., 1]
     return np.stack((cos * x - sin * y, sin * x + cos * y), axis=-1) + np.asarray(positions)[..., None, None, :2]
 
 

@@ -13,7 +13,7 @@ from collections.abc import Collection
 
 import numpy as np
 
-from t2m_core.domain.geometry import object_geometry, pad_polygons, polygon_edges, quat_yaw
+from t2m_core.domain.geometry import object_geometry, pad_polygons, polygon_edges, quat_yaw, yawed_polygons
 from t2m_core.domain.objects import ObjectKind, object_spec
 from t2m_core.domain.primitives.sweep_screen import comes_near
 from t2m_core.domain.state import GeometricState
@@ -41,10 +41,7 @@ def finger_footprints(positions: np.ndarray, yaws: np.ndarray, opening: float | 
     inner, outer = opening, opening + FINGER_DEPTH
     left = np.stack((np.broadcast_to(x, (len(yaws), 4)), np.concatenate((inner, inner, outer, outer), axis=1)), axis=-1)
     right = left[:, ::-1] * np.array([1.0, -1.0])  # mirrored in y, reversed to stay counter-clockwise
-    fingers = np.stack((left, right), axis=1)  # (B, 2, 4, 2), EE frame
-    cos, sin = np.cos(yaws)[:, None, None], np.sin(yaws)[:, None, None]
-    fx, fy = fingers[..., 0], fingers[..., 1]
-    return np.stack((cos * fx - sin * fy, sin * fx + cos * fy), axis=-1) + np.asarray(positions)[:, None, None, :2]
+    return yawed_polygons(np.stack((left, right), axis=1), positions, yaws)  # from (B, 2, 4, 2) in the EE frame
 
 
 def fingers_strike(state: GeometricState, spared: Collection[str], footprints: np.ndarray, tips: np.ndarray) -> np.ndarray:
