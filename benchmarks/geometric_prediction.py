@@ -8,9 +8,11 @@ docs/guide/feasibility.md#geometric-veto), read on each transition's decoded obs
 a Pick whose fingers land on the rack's plate, a neighbour or the table, or whose object lies
 outside the workspace; a Pull or Push sweeping into another object; a Place setting its object down
 against one. Per failure reason (and for the successes): the transitions and how many the prediction
-flags. Then the area under the ROC curve of the prediction (0 where it fires, 1 elsewhere) and of the
-ensemble's min-of-8 value against success, over every transition and over the failure reasons the
-prediction is about. ``DATASET`` is a directory written by ``t2m datagen`` (``DATASET/<skill>/<split>``);
+flags. Then the area under the ROC curve against success of the prediction (0 where it fires, 1
+elsewhere), of the ensemble's min-of-8 value, and of that value vetoed by the prediction (0 where it
+fires: what a planner with the ``veto`` option reads), over every transition and over the failure reasons the
+prediction is about, and the same per kind of call (the arguments' object kinds: ``place(hook,
+table)``, ``place(box, rack)``, ...). ``DATASET`` is a directory written by ``t2m datagen`` (``DATASET/<skill>/<split>``);
 data sampled in the task scenes (``--scenes tasks``) shows the situations the planners meet.
 """
 
@@ -32,6 +34,7 @@ from t2m_core.data.generate import load_split
 from t2m_core.data.records import Transitions
 from t2m_core.domain.observation import decode_observation
 from t2m_core.domain.primitives import get_primitive
+from t2m_core.domain.skills import SkillCall
 from t2m_core.errors import T2MError
 
 PREDICTED_REASONS = {
@@ -54,11 +57,24 @@ def predictions(skill: str, transitions: Transitions) -> np.ndarray:
     return flagged
 
 
+def call_kinds(skill: str, transitions: Transitions) -> np.ndarray:
+    """``(N,) str``: each transition's lifted call, its arguments' object kinds (``"place(hook, table)"``)."""
+    return np.array([SkillCall(skill, transitions.argument_names(row)).lifted for row in range(len(transitions))])
+
+
 def measure(skill: str, transitions: Transitions, values: np.ndarray) -> dict:
-    """The table by outcome and the AUCs of the prediction and of ``values`` (N,) against success."""
+    """The table by outcome and the AUCs of the prediction and of ``values`` (N,) against success,
+    over every transition and per kind of call (:func:`call_kinds`)."""
     flagged = predictions(skill, transitions)
     outcomes = np.array([failure or "success" for failure in transitions.failure_names()])
-    success = transitions.success
+    kinds = call_kinds(skill, transitions)
+    report = _measure(skill, flagged, outcomes, transitions.success, values)
+    by_call = {kind: _measure(skill, flagged[kinds == kind], outcomes[kinds == kind], transitions.success[kinds == kind],
+                              values[kinds == kind]) for kind in sorted(set(kinds.tolist()))}
+    return {"skill": skill, "transitions": len(transitions), **report, "by_call": by_call}
+
+
+def _measure(skill: str, flagged: np.ndarray, outcomes: np.ndarray, success: np.ndarray, values: np.ndarray) -> dict:
     by_outcome = {
         outcome: {"transitions": int(count), "flagged": int(flagged[outcomes == outcome].sum()),
                   "mean_value": float(values[outcomes == outcome].mean())}
@@ -66,15 +82,20 @@ def measure(skill: str, transitions: Transitions, values: np.ndarray) -> dict:
     }
     about = success | np.isin(outcomes, PREDICTED_REASONS[skill])
     return {
-        "skill": skill,
-        "transitions": len(transitions),
+        "transitions": len(outcomes),
         "by_outcome": by_outcome,
-        "auc_all": {"prediction": roc_auc((~flagged).astype(float), success), "ensemble": roc_auc(values, success)},
-        "auc_predicted_reasons": {
-            "reasons": list(PREDICTED_REASONS[skill]),
-            "prediction": roc_auc((~flagged[about]).astype(float), success[about]),
-            "ensemble": roc_auc(values[about], success[about]),
-        },
+        "auc_all": _aucs(flagged, values, success),
+        "auc_predicted_reasons": {"reasons": list(PREDICTED_REASONS[skill]), **_aucs(flagged[about], values[about], success[about])},
+    }
+
+
+def _aucs(flagged: np.ndarray, values: np.ndarray, success: np.ndarray) -> dict:
+    """AUCs against success of the prediction alone, the ensemble alone and the ensemble vetoed by
+    the prediction (its value set to 0 where the prediction fires: what a planner with the veto reads)."""
+    return {
+        "prediction": roc_auc((~flagged).astype(float), success),
+        "ensemble": roc_auc(values, success),
+        "vetoed_ensemble": roc_auc(np.where(flagged, 0.0, values), success),
     }
 
 
@@ -95,16 +116,23 @@ def main() -> None:
     tensors = SkillTensors.from_transitions(transitions)
     values = skill.q_values(tensors.states(), tensors.actions).min(dim=1).values.numpy()
     report = measure(args.skill, transitions, values)
-    print(f"{args.skill}: {report['transitions']} transitions of {args.dataset / args.skill / args.split}")
-    print(f"{'outcome':>20s} {'transitions':>12s} {'flagged':>8s} {'ensemble value':>15s}")
-    for outcome, row in report["by_outcome"].items():
-        print(f"{outcome:>20s} {row['transitions']:12d} {row['flagged']:8d} {row['mean_value']:15.2f}")
-    for key, title in (("auc_all", "every transition"), ("auc_predicted_reasons", "successes and " + ", ".join(PREDICTED_REASONS[args.skill]))):
-        auc = report[key]
-        print(f"AUC on {title}: prediction {_fmt(auc['prediction'])}, ensemble {_fmt(auc['ensemble'])}")
+    _print(f"{args.skill}: {report['transitions']} transitions of {args.dataset / args.skill / args.split}", args.skill, report)
+    for kind, part in report["by_call"].items():
+        _print(f"\n{kind}: {part['transitions']} transitions", args.skill, part)
     if args.json_out:
         write_json_atomic(args.json_out, {"dataset": str(args.dataset), "split": args.split,
                                           "checkpoints": str(args.checkpoints or "shipped"), **report})
+
+
+def _print(title: str, skill: str, report: dict) -> None:
+    print(title)
+    print(f"{'outcome':>20s} {'transitions':>12s} {'flagged':>8s} {'ensemble value':>15s}")
+    for outcome, row in report["by_outcome"].items():
+        print(f"{outcome:>20s} {row['transitions']:12d} {row['flagged']:8d} {row['mean_value']:15.2f}")
+    for key, title in (("auc_all", "every transition"), ("auc_predicted_reasons", "successes and " + ", ".join(PREDICTED_REASONS[skill]))):
+        auc = report[key]
+        print(f"AUC on {title}: prediction {_fmt(auc['prediction'])}, ensemble {_fmt(auc['ensemble'])}, "
+              f"vetoed ensemble {_fmt(auc['vetoed_ensemble'])}")
 
 
 def _fmt(value: float | None) -> str:

@@ -2,13 +2,47 @@
 
 from __future__ import annotations
 
-from typing import Literal
+import re
+from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
-VetoSkill = Literal["pick", "pull", "push", "place"]
+from t2m_core.domain.objects import ObjectKind
+from t2m_core.domain.skills import SKILLS
+
+VETO_SKILLS = ("pick", "pull", "push", "place")
 """The skills whose primitives predict from the domain's geometry when an action drives something into
 another object (:mod:`t2m_stap.geometric_veto`)."""
+
+_LIFTED = re.compile(r"^\s*(\w+)\s*\((.*)\)\s*$")
+
+
+def veto_entry(text: str) -> str:
+    """A ``veto`` entry, normalised: a skill of :data:`VETO_SKILLS` (every call of it) or a lifted
+    call, the skill with its arguments' object kinds (``place(hook, table)``: the hook set down on
+    the table; see :attr:`~t2m_core.domain.skills.SkillCall.lifted`).
+
+    Raises:
+        ValueError: naming the entry and the forms an entry takes.
+    """
+    forms = f"use a skill ({', '.join(VETO_SKILLS)}) or a skill with object kinds, e.g. place(hook, table)"
+    match = _LIFTED.match(text)
+    name = match.group(1) if match else text.strip()
+    if name not in VETO_SKILLS:
+        raise ValueError(f"{text!r} names no skill with a geometric prediction; {forms}")
+    if not match:
+        return name
+    kinds = [kind.strip() for kind in match.group(2).split(",")]
+    unknown = [kind for kind in kinds if kind not in {k.value for k in ObjectKind}]
+    if unknown or len(kinds) != SKILLS[name].arity:
+        raise ValueError(
+            f"{text!r}: {name} takes {SKILLS[name].arity} object kind(s) of {', '.join(k.value for k in ObjectKind)}; {forms}"
+        )
+    return f"{name}({', '.join(kinds)})"
+
+
+VetoEntry = Annotated[str, AfterValidator(veto_entry)]
+"""One entry of the ``veto`` option (:func:`veto_entry`)."""
 
 
 class SamplingOptions(BaseModel):
@@ -25,9 +59,9 @@ class SamplingOptions(BaseModel):
         20_000, ge=1, description="trajectories rolled out per batch (bounds memory; CEM results do not depend on it)"
     )
     ood_penalty: bool = Field(False, description="optimise the OOD-masked product instead of reporting the flags only")
-    veto: list[VetoSkill] = Field(
-        default_factory=list, description="skills (pick, pull, push, place) whose actions get the value 0 where the domain's geometry "
-        "predicts them to drive the fingers, the hook, the box or the held object into another object (a deviation: the method "
+    veto: list[VetoEntry] = Field(
+        default_factory=list, description="skills (pick, pull, push, place) or lifted calls (place(hook, table)) whose actions get the value 0 "
+        "where the domain's geometry predicts them to drive the fingers, the hook, the box or the held object into another object (a deviation: the method "
         "judges with the ensembles alone)"
     )
 
@@ -52,7 +86,7 @@ class CEMOptions(SamplingOptions):
     :data:`CPU_POPULATION` samples per iteration and the geometric veto on :data:`DEFAULT_VETO`)."""
 
     population: int = Field(CPU_POPULATION, ge=1, description="trajectories sampled per iteration (the paper: 10 000)")
-    veto: list[VetoSkill] = Field(
+    veto: list[VetoEntry] = Field(
         default_factory=lambda: list(DEFAULT_VETO),
         description="as every sampling planner's, here on grasps and pulls by default ([]: the published judgement by the ensembles alone)",
     )
@@ -75,7 +109,7 @@ class RandomCEMOptions(CEMOptions):
     population: int = Field(10_000, ge=1, description="trajectories sampled per iteration (× 4T)")
     sigma: float = Field(1.0, gt=0, description="initial standard deviation, normalised action units")
     scale_population_by_horizon: bool = Field(True, description="sample population × 4T trajectories")
-    veto: list[VetoSkill] = Field(default_factory=list, description="as PolicyCEM's; none by default (the published baseline)")
+    veto: list[VetoEntry] = Field(default_factory=list, description="as PolicyCEM's; none by default (the published baseline)")
 
 
 class ShootingOptions(SamplingOptions):
@@ -91,7 +125,7 @@ class PolicyOptions(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    veto: list[VetoSkill] = Field(
-        default_factory=list, description="skills (pick, pull, push, place) whose actions are reported with the value 0 where the domain's "
-        "geometry predicts them to drive something into another object"
+    veto: list[VetoEntry] = Field(
+        default_factory=list, description="skills (pick, pull, push, place) or lifted calls (place(hook, table)) whose actions are reported "
+        "with the value 0 where the domain's geometry predicts them to drive something into another object"
     )

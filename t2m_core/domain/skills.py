@@ -16,7 +16,7 @@ from t2m_core.domain.literals import (
     parse_call,
     parse_string_lists,
 )
-from t2m_core.domain.objects import OBJECTS, ObjectKind
+from t2m_core.domain.objects import OBJECTS, ObjectKind, object_spec
 from t2m_core.errors import T2MError
 
 MOVABLE = frozenset({ObjectKind.BOX, ObjectKind.HOOK})
@@ -114,6 +114,13 @@ class SkillCall:
 
     def __str__(self) -> str:
         return f"{self.name}({', '.join(self.args)})"
+
+    @property
+    def lifted(self) -> str:
+        """The call with each argument replaced by its object kind, e.g. ``place(hook, table)`` for
+        ``place(hook, table)`` and ``place(box, rack)`` for ``place(red_box, rack)``; raises
+        ``KeyError`` for an unknown object."""
+        return f"{self.name}({', '.join(object_spec(arg).kind.value for arg in self.args)})"
 
     @property
     def signature(self) -> SkillSignature:

@@ -34,6 +34,14 @@ def test_parse_skill_call_normalises() -> None:
     assert parse_skill_call("stop()", allow_stop=True) == SkillCall("stop", ())
 
 
+def test_a_lifted_call_names_the_object_kinds() -> None:
+    assert SkillCall("place", ("red_box", "rack")).lifted == "place(box, rack)"
+    assert SkillCall("place", ("hook", "table")).lifted == "place(hook, table)"
+    assert SkillCall("push", ("cyan_box", "hook", "rack")).lifted == "push(box, hook, rack)"
+    with pytest.raises(KeyError, match="unknown object 'shelf'"):
+        _ = SkillCall("place", ("red_box", "shelf")).lifted
+
+
 @pytest.mark.parametrize(
     ("text", "message"),
     [

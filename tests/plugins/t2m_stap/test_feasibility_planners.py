@@ -198,3 +198,30 @@ def test_the_veto_option_takes_the_skills_that_have_a_prediction() -> None:
     assert CEMOptions(veto=[]).veto == [] and RandomCEMOptions().veto == [] and PolicyOptions().veto == []  # PolicyCEM's default only
     with pytest.raises(ValidationError, match="pull"):
         CEMOptions(veto=["stop"])  # stop has no prediction of its own
+
+
+def test_a_veto_entry_names_a_skill_or_a_lifted_call() -> None:
+    from pydantic import ValidationError
+
+    assert CEMOptions(veto=["pick", " place( hook,table ) "]).veto == ["pick", "place(hook, table)"]  # normalised
+    for entry, problem in (("place(hook)", "takes 2 object kind"), ("place(hook, shelf)", "takes 2 object kind"),
+                           ("stop(table)", "names no skill"), ("place(hook, table", "names no skill")):
+        with pytest.raises(ValidationError, match=problem):
+            CEMOptions(veto=[entry])
+
+
+def test_a_lifted_veto_entry_vetoes_only_its_calls() -> None:
+    from t2m_stap.rollout import prepare_steps
+
+    calls = [SkillCall("place", ("hook", "table")), SkillCall("place", ("red_box", "table")), SkillCall("place", ("red_box", "rack"))]
+    skills = {"place": ToySkill("place")}
+    names = ("table", "rack", "hook", "red_box")
+    by_entry = {
+        "place(hook, table)": [True, False, False],
+        "place(box, table)": [False, True, False],
+        "place": [True, True, True],
+        "pick": [False, False, False],
+    }
+    for entry, expected in by_entry.items():
+        steps = prepare_steps(calls, skills, names, vetoed=frozenset(CEMOptions(veto=[entry]).veto))
+        assert [step.veto is not None for step in steps] == expected, entry
