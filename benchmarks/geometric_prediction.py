@@ -5,16 +5,16 @@ successes, beside the learned Q-ensemble's value on the same transitions.
 
 The prediction is the primitive's ``in_the_way`` (the planners' ``veto`` option,
 docs/guide/feasibility.md#geometric-veto), read on each transition's decoded observation and action:
-a Pick whose fingers land on the rack's plate, a neighbour or the table, whose object lies outside
-the workspace, or whose grasp point lies beside the box; a Pull or Push sweeping into another
-object; a Place setting its object down against one. Per failure reason (and for the successes):
-the transitions and how many the prediction flags. Then the area under the ROC curve against
-success of the prediction (0 where it fires, 1 elsewhere), of the ensemble's min-of-8 value, and of
-that value vetoed by the prediction (0 where it fires: what a planner with the ``veto`` option
-reads), over every transition and over the failure reasons the prediction is about; and all of it
-per lifted call (the arguments' object kinds: ``place(hook, table)``, ``place(box, rack)``, ...).
-``DATASET`` is a directory written by ``t2m datagen`` (``DATASET/<skill>/<split>``); data sampled in
-the task scenes (``--scenes tasks``) shows the situations the planners meet.
+a Pick whose fingers land on the rack's plate, a neighbour or the table, or whose object lies
+outside the workspace; a Pull or Push sweeping into another object; a Place setting its object
+down against one. Per failure reason (and for the successes): the transitions and how many the
+prediction flags. Then the area under the ROC curve against success of the prediction (0 where it
+fires, 1 elsewhere), of the ensemble's min-of-8 value, and of that value vetoed by the prediction
+(0 where it fires: what a planner with the ``veto`` option reads), over every transition and over
+the failure reasons the prediction is about; and all of it per lifted call (the arguments' object
+kinds: ``place(hook, table)``, ``place(box, rack)``, ...). ``DATASET`` is a directory written by
+``t2m datagen`` (``DATASET/<skill>/<split>``); data sampled in the task scenes (``--scenes tasks``)
+shows the situations the planners meet.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ from t2m_core.domain.skills import SkillCall
 from t2m_core.errors import T2MError
 
 PREDICTED_REASONS = {
-    "pick": ("collision", "not_in_workspace", "grasp_failed"),
+    "pick": ("collision", "not_in_workspace"),
     "pull": ("disturbed",),
     "push": ("disturbed",),
     "place": ("collision", "disturbed"),

@@ -97,6 +97,10 @@ class CEMOptions(SamplingOptions):
     sigma_mode: Literal["constant", "adaptive"] = Field(
         "constant", description="constant: hold sigma (paper); adaptive: the elites' std, floored at 1e-4 (original)"
     )
+    clip_grasps: bool = Field(
+        False, description="clamp every sampled grasp of a box into the box's footprint (its grasp point's x and y) before it "
+        "is rolled out: the grasp point beside a box closes on nothing"
+    )
     restarts: int = Field(
         1, ge=1, description="independent CEM runs from the same start, drawn one after another from the seed's "
         "random stream; the best score wins (1: the paper's single run)"

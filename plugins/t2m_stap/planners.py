@@ -11,6 +11,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import torch
 
+from t2m_core.domain.primitives import get_primitive
 from t2m_core.domain.skills import SkillCall
 from t2m_core.protocols import PlanResult, Skill
 from t2m_stap.options import CEMOptions, PolicyOptions, RandomCEMOptions, SamplingOptions, ShootingOptions
@@ -85,6 +86,20 @@ class FeasibilityPlannerBase:
         raise NotImplementedError
 
 
+def action_bounds(steps: Sequence[Step], *, clip_grasps: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
+    """``((T, 4), (T, 4))`` normalised bounds of each step's sampled actions: [−1, 1], and with
+    ``clip_grasps`` a grasp of a box kept within the box's footprint
+    (:meth:`~t2m_core.domain.primitives.pick.Pick.grasp_bounds`)."""
+    low, high = torch.full((len(steps), 4), -1.0), torch.full((len(steps), 4), 1.0)
+    if clip_grasps:
+        pick = get_primitive("pick")
+        for t, step in enumerate(steps):
+            if step.call.name == "pick":
+                bounds = pick.grasp_bounds(step.call.args)
+                low[t], high[t] = (torch.from_numpy(pick.to_normalized(b).astype(np.float32)) for b in bounds)
+    return low, high
+
+
 class PolicyRollout(FeasibilityPlannerBase):
     """``policy``: one deterministic rollout of the skills' policies; reports its Q product."""
 
@@ -124,18 +139,19 @@ class CrossEntropyMethod(FeasibilityPlannerBase):
         trajectory, and that trajectory's index."""
         options = self.options
         horizon = len(steps)
+        low, high = action_bounds(steps, clip_grasps=options.clip_grasps)
         sigma = torch.full((horizon, 4), options.sigma)
         samples_per_iteration = options.samples(horizon)
         best: tuple[float, Rollouts, int] | None = None
         elites: torch.Tensor | None = None
         for _ in range(options.iterations):
-            actions = (mean + sigma * torch.randn((samples_per_iteration, horizon, 4), generator=generator)).clamp(-1.0, 1.0)
+            actions = (mean + sigma * torch.randn((samples_per_iteration, horizon, 4), generator=generator)).clamp(low, high)
             kept = 0
             if elites is not None and options.keep_elites:
                 kept = min(len(elites), samples_per_iteration)
                 actions[:kept] = elites[:kept]
             if kept < samples_per_iteration:
-                actions[kept] = mean  # the mean itself is always one candidate
+                actions[kept] = mean.clamp(low, high) if options.clip_grasps else mean  # the mean itself is always one candidate
             rollouts = rollout_in_chunks(steps, start, actions, options.chunk_size)
             scores = rollouts.p_success(thresholds if options.ood_penalty else None)
             top = torch.topk(scores, min(options.elites, samples_per_iteration)).indices

@@ -486,18 +486,13 @@ def test_pick_in_the_way_sees_fingers_on_the_rack_plate_a_neighbour_or_the_table
     assert PICK.in_the_way(far, ["red_box"], grasps).tolist() == [True, True]
 
 
-def test_pick_in_the_way_sees_a_grasp_point_beside_a_box_but_not_beside_the_hook() -> None:
-    # The red box is 50 mm square: its faces stand 25 mm from its centre; the prediction allows 2 mm.
-    alone = scene(red_box=on_table("red_box", 0.5, 0.1))
-    grasps = np.array([[0.026, 0.0, 0.0, 0.0], [0.0, -0.026, 0.0, 0.0], [0.028, 0.0, 0.0, 0.0], [0.0, -0.028, 0.0, 1.0],
-                       [0.02, 0.02, 0.0, 0.5]])
-    assert PICK.in_the_way(alone, ["red_box"], grasps).tolist() == [False, False, True, True, False]
-    # The hook's pads hold its bars from grasp points a little beside them: no such prediction. Its
-    # handle spans y in [-0.11, -0.07] of its frame; a grasp 3 mm beside it is not flagged.
-    handle = OBJECTS["hook"].hook.footprint()[0]
-    assert handle.center[1] + handle.size[1] / 2 == pytest.approx(-0.07)
-    hook = scene(hook=on_table("hook", 0.5, 0.1))
-    assert PICK.in_the_way(hook, ["hook"], np.array([[0.0, -0.067, 0.0, 0.0]])).tolist() == [False]
+def test_pick_grasp_bounds_keep_a_box_grasp_on_the_box() -> None:
+    low, high = PICK.grasp_bounds(["cyan_box"])  # 58 mm square
+    np.testing.assert_allclose(high, [0.029, 0.029, PICK.action_high[2], PICK.action_high[3]])
+    np.testing.assert_allclose(low, [-0.029, -0.029, PICK.action_low[2], PICK.action_low[3]])
+    low, high = PICK.grasp_bounds(["hook"])
+    np.testing.assert_allclose(low, PICK.action_low)
+    np.testing.assert_allclose(high, PICK.action_high)
 
 
 def test_finger_footprints_and_the_opening_on_a_held_box(holding: GeometricState) -> None:

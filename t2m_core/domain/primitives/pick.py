@@ -26,23 +26,6 @@ MOVABLE = frozenset({ObjectKind.BOX, ObjectKind.HOOK})
 TABLE_MARGIN = 0.001
 """m: a grasp whose fingertips would end lower than this above the table is predicted to strike it."""
 
-BOX_GRASP_MARGIN = 0.002
-"""m: a grasp of a box whose point lies farther than this outside the box's footprint (its object
-frame x or y beyond the half size) is predicted to close beside it. Of 339 grasps of boxes proposed
-in the task scenes, 85 of the 107 that closed on nothing lay there and none of the 232 that held
-(docs/guide/feasibility.md#geometric-veto)."""
-
-
-def _beside_box(obj: str, physical: np.ndarray) -> np.ndarray:
-    """``(B,)`` for a box, whether each grasp point (object frame, ``physical[:, :2]``) lies more than
-    :data:`BOX_GRASP_MARGIN` outside its footprint; all False for the hook, whose pads also hold it
-    from grasp points beside its bars."""
-    spec = object_spec(obj)
-    if spec.kind is not ObjectKind.BOX:
-        return np.zeros(len(physical), dtype=bool)
-    half = 0.5 * np.asarray(spec.size[:2]) + BOX_GRASP_MARGIN
-    return np.any(np.abs(physical[:, :2]) > half, axis=1)
-
 
 class Pick(Primitive):
     """Grasp ``obj`` at an offset in its own frame.
@@ -65,13 +48,12 @@ class Pick(Primitive):
         return position, wrap_angle(quat_yaw(pose.quaternion) + theta)
 
     def in_the_way(self, state: GeometricState, arguments: Sequence[str], physical: np.ndarray) -> np.ndarray:
-        """``(B,)`` whether each of ``(B, 4)`` physical grasps is predicted to fail: the object
-        outside the workspace (the precheck refuses every grasp), fingertips at the table, an open
-        finger near a part of a bystander (an object other than the argument and the table) that
-        rises above the fingertips, such as the rack's plate beside a box
-        (:func:`~t2m_core.domain.primitives.fingers.fingers_strike`), or, for a box, the grasp point
-        beyond its footprint (:data:`BOX_GRASP_MARGIN`), where the fingers close beside it. A
-        prediction from the domain's geometry, not a result."""
+        """``(B,)`` whether each of ``(B, 4)`` physical grasps is predicted to fail before it closes:
+        the object outside the workspace (the precheck refuses every grasp), fingertips at the table,
+        or an open finger near a part of a bystander (an object other than the argument and the table)
+        that rises above the fingertips, such as the rack's plate beside a box
+        (:func:`~t2m_core.domain.primitives.fingers.fingers_strike`). A prediction from the domain's
+        geometry, not a result."""
         (obj,) = self.check_arguments(state, arguments)
         physical = np.atleast_2d(np.asarray(physical, dtype=np.float64))
         if self.precheck(state, arguments, physical[0]) is not None:  # the precheck reads the object, not the action
@@ -81,7 +63,19 @@ class Pick(Primitive):
         tips = grasps[:, 2] - FINGERTIP_BELOW_EE
         yaws = float(quat_yaw(pose.quaternion)) + physical[:, 3]
         struck = fingers_strike(state, (obj,), finger_footprints(grasps, yaws, FINGER_OPEN), tips)
-        return struck | (tips < TABLE_Z_MAX + TABLE_MARGIN) | _beside_box(obj, physical)
+        return struck | (tips < TABLE_Z_MAX + TABLE_MARGIN)
+
+    def grasp_bounds(self, arguments: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+        """``((4,), (4,))`` physical action bounds whose grasp point lies on the object: for a box, x
+        and y within its footprint (a grasp point beside a box closes on nothing); for the hook, the
+        action bounds themselves (its pads also hold a bar from beside it)."""
+        (obj,) = arguments
+        low, high = self.action_low.copy(), self.action_high.copy()
+        spec = object_spec(obj)
+        if spec.kind is ObjectKind.BOX:
+            half = 0.5 * np.asarray(spec.size[:2])
+            low[:2], high[:2] = np.maximum(low[:2], -half), np.minimum(high[:2], half)
+        return low, high
 
     def precheck(self, state: GeometricState, arguments: Sequence[str], action: np.ndarray) -> str | None:
         (obj,) = self.check_arguments(state, arguments)

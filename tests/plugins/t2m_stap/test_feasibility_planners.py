@@ -52,7 +52,7 @@ def test_cem_resolves_a_dependency_across_steps_through_the_dynamics() -> None:
         ToySkill.q_values(first, states, actions * __import__("torch").tensor([0.0, 1.0, 1.0, 1.0]))
     )
     skills = {"pick": first, "place": ToySkill("place", policy_action=(0.9, -0.4, 0.2, 0.0), chained=True)}
-    result = CrossEntropyMethod(CEMOptions(population=3000, veto=[])).plan(OBSERVATION, [PICK, PLACE], skills, OBJECTS)  # the toy geometry aside
+    result = CrossEntropyMethod(CEMOptions(population=3000)).plan(OBSERVATION, [PICK, PLACE], skills, OBJECTS)
     assert result.p_success > 0.8
     # the predicted state carries step 1's choice, and step 2's action matches it
     moved_x_normalised = (result.states[1, 3, 0] - 0.3) / 1.2
@@ -93,7 +93,7 @@ def test_an_unknown_skill_is_named_with_the_library_contents() -> None:
 def test_policy_cem_starts_from_given_prefix_actions_and_the_policy_after_them() -> None:
     # one sample, one iteration: the plan is the starting mean itself
     skills = {"pick": ToySkill("pick", target=(0.6, -0.4, 0.2, 0.0)), "place": ToySkill("place", policy_action=(0.1, 0.2, 0.3, 0.4), chained=True)}
-    single = CEMOptions(population=1, iterations=1, elites=1, veto=[])  # the toy geometry aside
+    single = CEMOptions(population=1, iterations=1, elites=1)
     given = np.array([[0.6, -0.4, 0.2, 0.0]], np.float32)
     started = CrossEntropyMethod(single).plan(OBSERVATION, [PICK, PLACE], skills, OBJECTS, initial_actions=given)
     np.testing.assert_allclose(started.actions, [[0.6, -0.4, 0.2, 0.0], [0.1, 0.2, 0.3, 0.4]], atol=1e-6)
@@ -123,7 +123,7 @@ def test_restarts_keep_the_best_of_several_runs() -> None:
     skills = {"pick": ToySkill("pick", target=(0.6, -0.4, 0.2, 0.0)), "place": ToySkill("place", chained=True)}
 
     def plan(seed: int, restarts: int):
-        options = CEMOptions(population=8, iterations=2, elites=2, seed=seed, restarts=restarts, veto=[])  # the toy geometry aside
+        options = CEMOptions(population=8, iterations=2, elites=2, seed=seed, restarts=restarts)
         return CrossEntropyMethod(options).plan(OBSERVATION, [PICK, PLACE], skills, OBJECTS)
 
     single = [plan(seed, 1) for seed in range(4)]
@@ -188,7 +188,7 @@ def test_the_veto_turns_a_grasp_off_the_rack_plate() -> None:
     assert pick.in_the_way(state, call.args, pick.to_physical(plain.actions[0])[None])[0]
     vetoed = CrossEntropyMethod(CEMOptions(population=500, veto=["pick"])).plan(observation, [call], skills, names)
     assert not pick.in_the_way(state, call.args, pick.to_physical(vetoed.actions[0])[None])[0]
-    assert 0.0 < vetoed.values[0] < plain.values[0]  # not vetoed, a grasp the toy values lower (turned, or off centre within the box)
+    assert 0.05 < vetoed.values[0] < plain.values[0]
 
 
 def test_the_veto_option_takes_the_skills_that_have_a_prediction() -> None:
@@ -225,3 +225,17 @@ def test_a_lifted_veto_entry_vetoes_only_its_calls() -> None:
     for entry, expected in by_entry.items():
         steps = prepare_steps(calls, skills, names, vetoed=frozenset(CEMOptions(veto=[entry]).veto))
         assert [step.veto is not None for step in steps] == expected, entry
+
+
+def test_clip_grasps_keeps_every_sampled_grasp_of_a_box_on_it() -> None:
+    # The toy's best grasp of the red box (50 mm square) lies 8 cm beside it (normalised x 0.4 of ±0.2 m).
+    from t2m_stap.planners import action_bounds
+
+    skills = {"pick": ToySkill("pick", target=(0.4, 0.0, 0.0, 0.0), policy_action=(0.4, 0.0, 0.0, 0.0))}
+    plain = CrossEntropyMethod(CEMOptions(population=300, veto=[])).plan(OBSERVATION, [PICK], skills, OBJECTS)
+    assert plain.actions[0, 0] == pytest.approx(0.4, abs=0.1)
+    clipped = CrossEntropyMethod(CEMOptions(population=300, veto=[], clip_grasps=True)).plan(OBSERVATION, [PICK], skills, OBJECTS)
+    assert clipped.actions[0, 0] == pytest.approx(0.025 / 0.2, abs=1e-6)  # the box's edge, its half size, normalised
+    low, high = action_bounds([type("S", (), {"call": PICK})(), type("S", (), {"call": SkillCall("pick", ("hook",))})()], clip_grasps=True)
+    np.testing.assert_allclose(high.numpy(), [[0.125, 0.25, 1.0, 1.0], [1.0, 1.0, 1.0, 1.0]])  # 25 mm of ±0.2 m and ±0.1 m
+    np.testing.assert_allclose(low.numpy(), -high.numpy())
