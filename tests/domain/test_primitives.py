@@ -487,9 +487,9 @@ def test_pick_in_the_way_sees_fingers_on_the_rack_plate_a_neighbour_or_the_table
 
 
 def test_pick_grasp_bounds_keep_a_box_grasp_on_the_box() -> None:
-    low, high = PICK.grasp_bounds(["cyan_box"])  # 58 mm square
-    np.testing.assert_allclose(high, [0.029, 0.029, PICK.action_high[2], PICK.action_high[3]])
-    np.testing.assert_allclose(low, [-0.029, -0.029, PICK.action_low[2], PICK.action_low[3]])
+    low, high = PICK.grasp_bounds(["cyan_box"])  # 58 mm square: faces 29 mm out, grasp points 1 cm inside them
+    np.testing.assert_allclose(high, [0.019, 0.019, PICK.action_high[2], PICK.action_high[3]])
+    np.testing.assert_allclose(low, [-0.019, -0.019, PICK.action_low[2], PICK.action_low[3]])
     low, high = PICK.grasp_bounds(["hook"])
     np.testing.assert_allclose(low, PICK.action_low)
     np.testing.assert_allclose(high, PICK.action_high)

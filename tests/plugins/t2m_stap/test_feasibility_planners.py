@@ -235,7 +235,7 @@ def test_clip_grasps_keeps_every_sampled_grasp_of_a_box_on_it() -> None:
     plain = CrossEntropyMethod(CEMOptions(population=300, veto=[])).plan(OBSERVATION, [PICK], skills, OBJECTS)
     assert plain.actions[0, 0] == pytest.approx(0.4, abs=0.1)
     clipped = CrossEntropyMethod(CEMOptions(population=300, veto=[], clip_grasps=True)).plan(OBSERVATION, [PICK], skills, OBJECTS)
-    assert clipped.actions[0, 0] == pytest.approx(0.025 / 0.2, abs=1e-6)  # the box's edge, its half size, normalised
+    assert clipped.actions[0, 0] == pytest.approx(0.015 / 0.2, abs=1e-6)  # 1 cm inside the box's face (25 mm), normalised
     low, high = action_bounds([type("S", (), {"call": PICK})(), type("S", (), {"call": SkillCall("pick", ("hook",))})()], clip_grasps=True)
-    np.testing.assert_allclose(high.numpy(), [[0.125, 0.25, 1.0, 1.0], [1.0, 1.0, 1.0, 1.0]])  # 25 mm of ±0.2 m and ±0.1 m
+    np.testing.assert_allclose(high.numpy(), [[0.075, 0.15, 1.0, 1.0], [1.0, 1.0, 1.0, 1.0]], rtol=1e-6)  # 15 mm of ±0.2 m and ±0.1 m
     np.testing.assert_allclose(low.numpy(), -high.numpy())
