@@ -98,8 +98,8 @@ class CEMOptions(SamplingOptions):
         "constant", description="constant: hold sigma (paper); adaptive: the elites' std, floored at 1e-4 (original)"
     )
     clip_grasps: bool = Field(
-        False, description="clamp every sampled grasp of a box into the box's footprint (its grasp point's x and y) before it "
-        "is rolled out: the grasp point beside a box closes on nothing"
+        False, description="clamp every sampled grasp of a box to a grasp point at least 1 cm inside its faces (x and y in the "
+        "box's frame) before it is rolled out: grasp points beside a box or at its faces close on nothing"
     )
     restarts: int = Field(
         1, ge=1, description="independent CEM runs from the same start, drawn one after another from the seed's "

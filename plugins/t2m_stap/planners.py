@@ -88,7 +88,7 @@ class FeasibilityPlannerBase:
 
 def action_bounds(steps: Sequence[Step], *, clip_grasps: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
     """``((T, 4), (T, 4))`` normalised bounds of each step's sampled actions: [−1, 1], and with
-    ``clip_grasps`` a grasp of a box kept within the box's footprint
+    ``clip_grasps`` a grasp of a box kept 1 cm inside its faces
     (:meth:`~t2m_core.domain.primitives.pick.Pick.grasp_bounds`)."""
     low, high = torch.full((len(steps), 4), -1.0), torch.full((len(steps), 4), 1.0)
     if clip_grasps:
@@ -151,7 +151,8 @@ class CrossEntropyMethod(FeasibilityPlannerBase):
                 kept = min(len(elites), samples_per_iteration)
                 actions[:kept] = elites[:kept]
             if kept < samples_per_iteration:
-                actions[kept] = mean.clamp(low, high) if options.clip_grasps else mean  # the mean itself is always one candidate
+                # the mean itself is always one candidate (unclamped without clip_grasps, as published)
+                actions[kept] = mean.clamp(low, high) if options.clip_grasps else mean
             rollouts = rollout_in_chunks(steps, start, actions, options.chunk_size)
             scores = rollouts.p_success(thresholds if options.ood_penalty else None)
             top = torch.topk(scores, min(options.elites, samples_per_iteration)).indices

@@ -117,8 +117,8 @@ class SkillCall:
 
     @property
     def lifted(self) -> str:
-        """The call with each argument replaced by its object kind, e.g. ``place(hook, table)`` for
-        ``place(hook, table)`` and ``place(box, rack)`` for ``place(red_box, rack)``; raises
+        """The call with each argument replaced by its object kind: ``place(box, rack)`` for
+        ``place(red_box, rack)``, ``pull(box, hook)`` for ``pull(cyan_box, hook)``; raises
         ``KeyError`` for an unknown object."""
         return f"{self.name}({', '.join(object_spec(arg).kind.value for arg in self.args)})"
 
