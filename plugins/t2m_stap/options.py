@@ -99,7 +99,8 @@ class CEMOptions(SamplingOptions):
     )
     clip_grasps: bool = Field(
         False, description="clamp every sampled grasp of a box to a grasp point at least 1 cm inside its faces (x and y in the "
-        "box's frame) before it is rolled out: grasp points beside a box or at its faces close on nothing"
+        "box's frame) before it is rolled out, and search them with sigma scaled to that range: grasp points beside a box or at "
+        "its faces close on nothing"
     )
     restarts: int = Field(
         1, ge=1, description="independent CEM runs from the same start, drawn one after another from the seed's "

@@ -140,7 +140,9 @@ class CrossEntropyMethod(FeasibilityPlannerBase):
         options = self.options
         horizon = len(steps)
         low, high = action_bounds(steps, clip_grasps=options.clip_grasps)
-        sigma = torch.full((horizon, 4), options.sigma)
+        # sigma is a fraction of each dimension's range: a box grasp's clipped x and y are searched on the
+        # box's scale, not piled on its bounds (the same as options.sigma without clip_grasps)
+        sigma = options.sigma * (high - low) / 2
         samples_per_iteration = options.samples(horizon)
         best: tuple[float, Rollouts, int] | None = None
         elites: torch.Tensor | None = None
