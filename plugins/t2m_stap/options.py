@@ -2,20 +2,17 @@
 
 from __future__ import annotations
 
-import re
 from typing import Annotated, Literal
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
+from t2m_core.domain.literals import LiteralSyntaxError, parse_call
 from t2m_core.domain.objects import ObjectKind
-from t2m_core.domain.skills import SKILLS
+from t2m_core.domain.skills import SKILLS, SkillCall
 
 VETO_SKILLS = ("pick", "pull", "push", "place")
 """The skills whose primitives predict from the domain's geometry when an action drives something into
 another object (:mod:`t2m_stap.geometric_veto`)."""
-
-_LIFTED = re.compile(r"^\s*(\w+)\s*\((.*)\)\s*$")
-
 
 def veto_entry(text: str) -> str:
     """A ``veto`` entry, normalised: a skill of :data:`VETO_SKILLS` (every call of it) or a lifted
@@ -26,19 +23,21 @@ def veto_entry(text: str) -> str:
         ValueError: naming the entry and the forms an entry takes.
     """
     forms = f"use a skill ({', '.join(VETO_SKILLS)}) or a skill with object kinds, e.g. place(hook, table)"
-    match = _LIFTED.match(text)
-    name = match.group(1) if match else text.strip()
+    if "(" not in text:
+        name, kinds = text.strip(), None
+    else:
+        try:
+            name, kinds = parse_call(text, "veto entry")
+        except LiteralSyntaxError as error:
+            raise ValueError(f"{text!r}: {error.message}; {forms}") from None
     if name not in VETO_SKILLS:
         raise ValueError(f"{text!r} names no skill with a geometric prediction; {forms}")
-    if not match:
+    if kinds is None:
         return name
-    kinds = [kind.strip() for kind in match.group(2).split(",")]
-    unknown = [kind for kind in kinds if kind not in {k.value for k in ObjectKind}]
-    if unknown or len(kinds) != SKILLS[name].arity:
-        raise ValueError(
-            f"{text!r}: {name} takes {SKILLS[name].arity} object kind(s) of {', '.join(k.value for k in ObjectKind)}; {forms}"
-        )
-    return f"{name}({', '.join(kinds)})"
+    known = [kind.value for kind in ObjectKind]
+    if len(kinds) != SKILLS[name].arity or any(kind not in known for kind in kinds):
+        raise ValueError(f"{text!r}: {name} takes {SKILLS[name].arity} object kind(s) of {', '.join(known)}; {forms}")
+    return str(SkillCall(name, kinds))
 
 
 VetoEntry = Annotated[str, AfterValidator(veto_entry)]

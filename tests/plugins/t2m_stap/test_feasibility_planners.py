@@ -205,7 +205,7 @@ def test_a_veto_entry_names_a_skill_or_a_lifted_call() -> None:
 
     assert CEMOptions(veto=["pick", " place( hook,table ) "]).veto == ["pick", "place(hook, table)"]  # normalised
     for entry, problem in (("place(hook)", "takes 2 object kind"), ("place(hook, shelf)", "takes 2 object kind"),
-                           ("stop(table)", "names no skill"), ("place(hook, table", "names no skill")):
+                           ("stop(table)", "names no skill"), ("place(hook, table", "expected ',' or '\\)'")):
         with pytest.raises(ValidationError, match=problem):
             CEMOptions(veto=[entry])
 
