@@ -44,6 +44,12 @@ VetoEntry = Annotated[str, AfterValidator(veto_entry)]
 """One entry of the ``veto`` option (:func:`veto_entry`)."""
 
 
+VETO_FIRST = (
+    "entries of the same forms as veto's, vetoed at the skeleton's first skill only: the one a closed loop executes next, "
+    "judged at the observed state rather than at a predicted one, and the one veto thins out of a long skeleton's samples least"
+)
+
+
 class SamplingOptions(BaseModel):
     """What every sampling planner shares."""
 
@@ -63,6 +69,7 @@ class SamplingOptions(BaseModel):
         "where the domain's geometry predicts them to drive the fingers, the hook, the box or the held object into another object (a deviation: the method "
         "judges with the ensembles alone)"
     )
+    veto_first: list[VetoEntry] = Field(default_factory=list, description=VETO_FIRST)
 
     def samples(self, horizon: int) -> int:
         """Trajectories per iteration for a skeleton of ``horizon`` skills."""
@@ -133,3 +140,4 @@ class PolicyOptions(BaseModel):
         default_factory=list, description="skills (pick, pull, push, place) or lifted calls (place(hook, table)) whose actions are reported "
         "with the value 0 where the domain's geometry predicts them to drive something into another object"
     )
+    veto_first: list[VetoEntry] = Field(default_factory=list, description=VETO_FIRST)

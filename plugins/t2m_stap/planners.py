@@ -75,7 +75,9 @@ class FeasibilityPlannerBase:
         if not skeleton:
             return _empty_plan(start)
         prefix_actions = _initial_actions(initial_actions, len(skeleton))
-        steps = prepare_steps(skeleton, skills, object_names, vetoed=frozenset(self.options.veto))
+        steps = prepare_steps(
+            skeleton, skills, object_names, vetoed=frozenset(self.options.veto), vetoed_first=frozenset(self.options.veto_first)
+        )
         thresholds = thresholds_of(steps)
         rollouts, index = self.search(start, steps, thresholds, prefix_actions)
         return plan_result(rollouts, index, thresholds)

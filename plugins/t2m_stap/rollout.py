@@ -46,22 +46,29 @@ class Step:
 
 
 def prepare_steps(
-    skeleton: Sequence[SkillCall], skills: Mapping[str, Skill], object_names: Sequence[str], *, vetoed: frozenset[str] = frozenset()
+    skeleton: Sequence[SkillCall],
+    skills: Mapping[str, Skill],
+    object_names: Sequence[str],
+    *,
+    vetoed: frozenset[str] = frozenset(),
+    vetoed_first: frozenset[str] = frozenset(),
 ) -> list[Step]:
     """Row orders and models of every skill in ``skeleton``; for the calls ``vetoed`` names (by skill
-    or lifted call, :func:`~t2m_stap.options.veto_entry`), the geometric veto of their actions
+    or lifted call, :func:`~t2m_stap.options.veto_entry`), and for the first call also those
+    ``vetoed_first`` names, the geometric veto of their actions
     (:func:`~t2m_stap.geometric_veto.geometric_veto`).
 
     Raises:
         KeyError: a skill the library does not have, naming the ones it has.
     """
     steps = []
-    for call in skeleton:
+    for index, call in enumerate(skeleton):
         if call.name not in skills:
             raise KeyError(f"the skill library has no {call.name!r} skill; it has {', '.join(sorted(skills))}")
         row_order = argument_first_order(object_names, call.args)
         order = torch.from_numpy(row_order.order)
-        veto = geometric_veto(call, object_names) if vetoed & {call.name, call.lifted} else None
+        entries = vetoed | vetoed_first if index == 0 else vetoed
+        veto = geometric_veto(call, object_names) if entries & {call.name, call.lifted} else None
         steps.append(Step(call, skills[call.name], order, torch.from_numpy(row_order.inverse), row_order.num_present, veto))
     return steps
 

@@ -227,6 +227,40 @@ def test_a_lifted_veto_entry_vetoes_only_its_calls() -> None:
         assert [step.veto is not None for step in steps] == expected, entry
 
 
+def test_veto_first_vetoes_its_entries_at_the_first_call_only() -> None:
+    from pydantic import ValidationError
+
+    from t2m_stap.rollout import prepare_steps
+
+    calls = [SkillCall("place", ("hook", "table")), SkillCall("pick", ("red_box",)), SkillCall("place", ("hook", "table"))]
+    skills = {"place": ToySkill("place"), "pick": ToySkill("pick")}
+    names = ("table", "rack", "hook", "red_box")
+    options = CEMOptions(veto=["pick"], veto_first=["place(hook, table)"])
+    steps = prepare_steps(calls, skills, names, vetoed=frozenset(options.veto), vetoed_first=frozenset(options.veto_first))
+    assert [step.veto is not None for step in steps] == [True, True, False]  # the later hook placement is not vetoed
+    steps = prepare_steps(calls[1:], skills, names, vetoed=frozenset(), vetoed_first=frozenset(["place(hook, table)"]))
+    assert [step.veto is not None for step in steps] == [False, False]  # first only: pick is not the entry's call
+    assert CEMOptions().veto_first == [] and PolicyOptions().veto_first == [] and RandomCEMOptions().veto_first == []
+    with pytest.raises(ValidationError, match="takes 2 object kind"):
+        CEMOptions(veto_first=["place(hook)"])
+
+
+def test_veto_first_turns_the_first_grasp_off_the_rack_plate() -> None:
+    # The scene of test_the_veto_turns_a_grasp_off_the_rack_plate, vetoed through veto_first alone.
+    from t2m_core.domain.observation import encode_observation
+    from t2m_core.domain.primitives import PRIMITIVES
+    from tests.domain.scenes import RACK_IN_WORKSPACE, on_table, scene
+
+    pick = PRIMITIVES["pick"]
+    state = scene(rack=RACK_IN_WORKSPACE, red_box=on_table("red_box", 0.5, -0.18))
+    names, call = state.object_names, SkillCall("pick", ("red_box",))
+    towards = pick.to_normalized(np.zeros(4))
+    skills = {"pick": ToySkill("pick", target=tuple(towards), policy_action=tuple(towards))}
+    observation = encode_observation(state, names)
+    first = CrossEntropyMethod(CEMOptions(population=500, veto=[], veto_first=["pick"])).plan(observation, [call], skills, names)
+    assert not pick.in_the_way(state, call.args, pick.to_physical(first.actions[0])[None])[0]
+
+
 def test_clip_grasps_keeps_every_sampled_grasp_of_a_box_on_it() -> None:
     # The toy's best grasp of the red box (50 mm square) lies 8 cm beside it (normalised x 0.4 of ±0.2 m).
     from t2m_stap.planners import action_bounds
