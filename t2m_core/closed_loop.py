@@ -26,7 +26,9 @@ class ExecutedStep:
         call: the skill. plan: the plan of the remaining skeleton made just before it (its first
         step is this skill). action: ``(4,)`` the executed action, as the simulator received it
         (clipped to [-1, 1]). result: what the simulator did. plan_seconds, execute_seconds: wall
-        time of planning and of simulating it.
+        time of planning and of simulating it. retry: ``None``, or when the re-plan valued this skill
+        below ``retry_below``: the ``p_success`` of the first and the second plan and which one was
+        executed (``"first"`` or ``"second"``).
     """
 
     call: SkillCall
@@ -35,6 +37,7 @@ class ExecutedStep:
     result: PrimitiveResult
     plan_seconds: float
     execute_seconds: float
+    retry: dict[str, Any] | None = None
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready: the step's action (at full precision, so that replaying the recorded actions in
@@ -51,6 +54,7 @@ class ExecutedStep:
             "failure": self.result.failure,
             "plan_seconds": round(self.plan_seconds, 3),
             "execute_seconds": round(self.execute_seconds, 3),
+            **({} if self.retry is None else {"retry": self.retry}),
         }
 
 
@@ -77,6 +81,7 @@ def execute_closed_loop(
     closed_loop: bool = True,
     replan_start: str = "policy",
     accepted: PlanResult | None = None,
+    retry_below: float | None = None,
 ) -> ClosedLoopResult:
     """Execute ``skeleton`` in ``simulator`` (already reset), planning with ``planner``.
 
@@ -89,6 +94,10 @@ def execute_closed_loop(
             planner's own start); ``"planned"``, from the actions planned before it for the same
             skills (``accepted``'s for the first skill, then the previous plan's remaining ones).
         accepted: the plan a task planner accepted for ``skeleton`` from this start (or ``None``).
+        retry_below: when a re-plan values the skill it is about to execute below this, plan the
+            remaining skills once more from the other start (``planned`` for ``policy`` and the
+            other way round; no second plan where there are no planned actions yet) and execute the
+            plan with the higher ``p_success``. ``None``: never.
     """
     if replan_start not in ("policy", "planned"):
         raise ValueError(f"replan_start must be 'policy' or 'planned', got {replan_start!r}")
@@ -97,9 +106,19 @@ def execute_closed_loop(
     previous = accepted.actions if accepted is not None else None  # (remaining skills, 4) planned before for skeleton[index:]
     for index, call in enumerate(skeleton):
         started = time.perf_counter()
+        retry = None
         if closed_loop or first_plan is None:
-            start = {"initial_actions": previous} if replan_start == "planned" and previous is not None else {}
-            plan = planner.plan(simulator.observation(), list(skeleton[index:]), skills, object_names, **start)
+            observation, remaining = simulator.observation(), list(skeleton[index:])
+            planned_start = {"initial_actions": previous} if previous is not None else None
+            start = planned_start if replan_start == "planned" and planned_start is not None else {}
+            plan = planner.plan(observation, remaining, skills, object_names, **start)
+            if retry_below is not None and float(plan.values[0]) < retry_below:
+                other = planned_start if not start else {}
+                if other is not None:
+                    second = planner.plan(observation, remaining, skills, object_names, **other)
+                    chosen = "second" if float(second.p_success) > float(plan.p_success) else "first"
+                    retry = {"first_p_success": float(plan.p_success), "second_p_success": float(second.p_success), "chosen": chosen}
+                    plan = second if chosen == "second" else plan
             previous = np.asarray(plan.actions)[1:]
             offset = 0
         else:
@@ -108,7 +127,7 @@ def execute_closed_loop(
         planned = time.perf_counter()
         action = np.clip(np.asarray(plan.actions[offset], dtype=np.float64), -1.0, 1.0)
         result = simulator.execute(call.name, call.args, action)
-        step = ExecutedStep(call, _from_step(plan, offset), action, result, planned - started, time.perf_counter() - planned)
+        step = ExecutedStep(call, _from_step(plan, offset), action, result, planned - started, time.perf_counter() - planned, retry)
         outcome.steps.append(step)
         if on_step is not None:
             on_step(step)

@@ -174,7 +174,7 @@ def run_episode(
                 steps = execute_closed_loop(
                     _Timed(simulator, timings, "simulation"), feasibility, skills, task_plan.skeleton, objects,
                     on_step=lambda step: record({"event": "executed", **step.summary()}), closed_loop=config.run.closed_loop,
-                    replan_start=config.run.replan_start, accepted=task_plan.plan,
+                    replan_start=config.run.replan_start, retry_below=config.run.retry_below, accepted=task_plan.plan,
                 )
                 result.stap_calls += len(steps.steps)
                 executed_calls = [step.call for step in steps.steps if step.result.success]

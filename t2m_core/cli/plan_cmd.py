@@ -119,7 +119,7 @@ def _execute(console, simulator, planner, skills, calls, objects, out: Path | No
             simulator.stream_frames(video.add)
         try:
             result = execute_closed_loop(simulator, planner, skills, calls, objects, on_step=show, closed_loop=config.run.closed_loop,
-                                         replan_start=config.run.replan_start, accepted=first)
+                                         replan_start=config.run.replan_start, retry_below=config.run.retry_below, accepted=first)
         finally:
             if video is not None:
                 simulator.stream_frames(None)

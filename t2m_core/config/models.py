@@ -52,6 +52,14 @@ class RunSettings(BaseModel):
         "planned before for the same skills, the task planner's accepted plan first (planned; "
         "docs/guide/feasibility.md#closed-loop-execution).",
     )
+    retry_below: float | None = Field(
+        None,
+        ge=0.0,
+        le=1.0,
+        description="When a closed-loop re-plan values the skill it is about to execute below this, plan once more from "
+        "the other start (replan_start's alternative) and execute the plan with the higher p_success; null: never "
+        "(docs/guide/feasibility.md#closed-loop-execution).",
+    )
 
 
 class PromptSettings(BaseModel):

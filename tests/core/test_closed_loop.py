@@ -88,3 +88,59 @@ def test_execution_stops_at_the_first_failure_and_open_loop_plans_once() -> None
 def test_an_unknown_replan_start_is_refused() -> None:
     with pytest.raises(ValueError, match="replan_start must be 'policy' or 'planned'"):
         execute_closed_loop(simulator(), RecordingPlanner(), {}, SKELETON, (), replan_start="warm")
+
+
+class StartDependentPlanner(RecordingPlanner):
+    """A RecordingPlanner whose plans value their first skill ``from_policy`` without
+    ``initial_actions`` and ``from_planned`` with them."""
+
+    def __init__(self, from_policy: float, from_planned: float) -> None:
+        super().__init__()
+        self.first_values = {False: from_policy, True: from_planned}
+
+    def plan(self, observation, skeleton, skills, object_names, *, initial_actions=None) -> PlanResult:
+        plan = super().plan(observation, skeleton, skills, object_names, initial_actions=initial_actions)
+        values = plan.values.copy()
+        values[0] = self.first_values[initial_actions is not None]
+        return PlanResult(plan.actions, plan.states, values, plan.ood, float(np.prod(values)))
+
+
+ACCEPTED = PlanResult(np.full((3, 4), -0.7, np.float32), np.zeros((4, 8, 12), np.float32), np.ones(3, np.float32), np.zeros(3, bool), 1.0)
+
+
+def test_a_low_valued_replan_is_planned_again_from_the_planned_actions_and_the_better_one_executed() -> None:
+    planner = StartDependentPlanner(from_policy=0.05, from_planned=0.8)
+    sim = simulator()
+    result = execute_closed_loop(sim, planner, {}, SKELETON, sim.objects, accepted=ACCEPTED, retry_below=0.1)
+    # each skill: the policy start (0.05 < 0.1), then the planned one; 6 plans for 3 skills
+    assert len(planner.starts) == 6 and [s is None for s in planner.starts] == [True, False] * 3
+    np.testing.assert_array_equal(planner.starts[1], ACCEPTED.actions)
+    assert [s.retry["chosen"] for s in result.steps] == ["second"] * 3
+    assert result.steps[0].retry["first_p_success"] == pytest.approx(0.05 * 0.81) and result.steps[0].plan.values[0] == pytest.approx(0.8)
+    # the executed action is the second plan's (call 2: 0.2), and the next re-plan starts from its remaining actions
+    assert float(result.steps[0].action[0]) == pytest.approx(0.2)
+    np.testing.assert_allclose(planner.starts[3][:, 0], [0.21, 0.22], atol=1e-6)
+    assert result.steps[0].summary()["retry"]["chosen"] == "second"
+
+
+def test_a_retry_keeps_the_first_plan_when_the_second_is_no_better_and_needs_planned_actions() -> None:
+    planner = StartDependentPlanner(from_policy=0.05, from_planned=0.01)
+    sim = simulator()
+    result = execute_closed_loop(sim, planner, {}, SKELETON, sim.objects, accepted=ACCEPTED, retry_below=0.1)
+    assert [s.retry["chosen"] for s in result.steps] == ["first"] * 3 and float(result.steps[0].action[0]) == pytest.approx(0.1)
+    # without an accepted plan the first skill has no planned actions to start from: no second plan for it
+    planner = StartDependentPlanner(from_policy=0.05, from_planned=0.8)
+    sim = simulator()
+    result = execute_closed_loop(sim, planner, {}, SKELETON, sim.objects, retry_below=0.1)
+    assert result.steps[0].retry is None and "retry" not in result.steps[0].summary() and len(planner.starts) == 5
+
+
+def test_a_retry_from_planned_starts_plans_again_from_scratch_and_none_above_the_floor() -> None:
+    planner = StartDependentPlanner(from_policy=0.8, from_planned=0.05)
+    sim = simulator()
+    result = execute_closed_loop(sim, planner, {}, SKELETON, sim.objects, accepted=ACCEPTED, replan_start="planned", retry_below=0.1)
+    assert [s is None for s in planner.starts] == [False, True] * 3 and [s.retry["chosen"] for s in result.steps] == ["second"] * 3
+    planner = StartDependentPlanner(from_policy=0.5, from_planned=0.8)
+    sim = simulator()
+    result = execute_closed_loop(sim, planner, {}, SKELETON, sim.objects, accepted=ACCEPTED, retry_below=0.1)
+    assert len(planner.starts) == 3 and all(s.retry is None for s in result.steps)
