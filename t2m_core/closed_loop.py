@@ -113,7 +113,7 @@ def execute_closed_loop(
             start = planned_start if replan_start == "planned" and planned_start is not None else {}
             plan = planner.plan(observation, remaining, skills, object_names, **start)
             if retry_below is not None and float(plan.values[0]) < retry_below:
-                other = planned_start if not start else {}
+                other = planned_start if not start else {}  # after a policy start the planned one, and vice versa
                 if other is not None:
                     second = planner.plan(observation, remaining, skills, object_names, **other)
                     chosen = "second" if float(second.p_success) > float(plan.p_success) else "first"
