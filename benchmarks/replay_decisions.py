@@ -24,7 +24,9 @@ cost of STAP and the simulator alone. Each episode then reports its recorded and
 and where the plan trees part; one whose replay asks a question the recording does not hold has no
 answer here (the change reached the language model's decisions: evaluate it with ``t2m eval``), and
 makes the script exit 1. ``--calls`` keeps the episodes whose recorded plan holds a call of a skill or
-lifted call (``place(hook, table)``): the only ones a change to that call's planning can alter.
+lifted call (``place(hook, table)``): the only ones a change to that call's planning can alter;
+``--executed-below V`` those that executed a skill valued below V: the only ones ``run.retry_below=V``
+can alter.
 The summary gives the recorded and replayed successes of the replayed episodes and of the whole
 evaluation with them replaced.
 """
@@ -152,6 +154,8 @@ def main() -> None:
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                         help="replay under a changed configuration (repeatable): report outcomes instead of matches")
     parser.add_argument("--calls", default=None, help="comma-separated skills or lifted calls: only the episodes whose recorded plan holds one")
+    parser.add_argument("--executed-below", type=float, default=None,
+                        help="only the episodes that executed a skill valued below this")
     parser.add_argument("--workers", type=int, default=1, help="episodes replayed at once (default 1)")
     args = parser.parse_args()
 
@@ -170,9 +174,10 @@ def main() -> None:
     everything = episode_results(args.evaluation)
     episodes = [(d, r) for d, r in everything
                 if (tasks is None or r["task"] in tasks) and (seeds is None or seed_index(d) in seeds)
-                and (calls is None or holds_call(r.get("plan") or [], calls))]
+                and (calls is None or holds_call(r.get("plan") or [], calls))
+                and (args.executed_below is None or any(step["value"] < args.executed_below for step in r.get("executed") or []))]
     if not episodes:
-        raise SystemExit(f"no finished episodes in {args.evaluation} match --tasks/--seeds/--calls")
+        raise SystemExit(f"no finished episodes in {args.evaluation} match --tasks/--seeds/--calls/--executed-below")
     what_if = bool(args.overrides)
     rows = []
     with tempfile.TemporaryDirectory() as scratch:
