@@ -153,7 +153,8 @@ def main() -> None:
     parser.add_argument("--work", type=Path, default=None, help="where the replays are written (default: a temporary directory)")
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                         help="replay under a changed configuration (repeatable): report outcomes instead of matches")
-    parser.add_argument("--calls", default=None, help="comma-separated skills or lifted calls: only the episodes whose recorded plan holds one")
+    parser.add_argument("--calls", action="append", default=None, metavar="CALL",
+                        help="a skill or lifted call (repeatable): only the episodes whose recorded plan holds one")
     parser.add_argument("--executed-below", type=float, default=None,
                         help="only the episodes that executed a skill valued below this")
     parser.add_argument("--workers", type=int, default=1, help="episodes replayed at once (default 1)")
@@ -168,7 +169,7 @@ def main() -> None:
     tasks = None if args.tasks is None else set(args.tasks.split(","))
     seeds = None if args.seeds is None else set(parse_seed_indices(args.seeds))
     try:
-        calls = None if args.calls is None else {veto_entry(entry) for entry in _split_calls(args.calls)}
+        calls = None if args.calls is None else {veto_entry(entry) for entry in args.calls}
     except ValueError as problem:
         parser.error(f"--calls: {problem}")
     everything = episode_results(args.evaluation)
@@ -212,19 +213,6 @@ def main() -> None:
                          "the change reaches the task planner's decisions; evaluate it with t2m eval")
     if not what_if and matched != len(rows):
         raise SystemExit(1)
-
-
-def _split_calls(text: str) -> list[str]:
-    """``"pick,place(hook, table)"`` -> ``["pick", "place(hook, table)"]``: commas inside parentheses stay."""
-    entries, depth, current = [], 0, ""
-    for char in text:
-        depth += (char == "(") - (char == ")")
-        if char == "," and depth == 0:
-            entries.append(current)
-            current = ""
-        else:
-            current += char
-    return [e for e in [*entries, current] if e.strip()]
 
 
 def _outcome(success: bool | None, failure: str | None) -> str:
