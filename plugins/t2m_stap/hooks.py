@@ -11,7 +11,7 @@ FEASIBILITY_PLANNERS = [
         name="policy-cem",
         factory="t2m_stap.planners:policy_cem",
         options=CEMOptions,
-        summary="STAP PolicyCEM: CEM seeded by the policies' rollout, 10 x 10 000 samples (Text2Motion's, default)",
+        summary="STAP PolicyCEM: CEM seeded by the policies' rollout, 10 x 500 samples, spread from the elites (Text2Motion's, default)",
     ),
     FeasibilityPlannerSpec(
         name="random-cem",
