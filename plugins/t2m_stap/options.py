@@ -93,7 +93,11 @@ DEFAULT_VETO_FIRST = ["place(hook, table)"]
 whole suite reached 61 of 70 (docs/guide/feasibility.md#vetoed-at-the-first-step)."""
 
 
-DEFAULT_SIGMA_MODE = "adaptive"
+SigmaMode = Literal["constant", "adaptive"]
+"""How CEM's σ evolves: held at its initial value (the paper) or re-estimated from the elites (the original)."""
+
+
+DEFAULT_SIGMA_MODE: SigmaMode = "adaptive"
 """PolicyCEM re-estimates σ from the elites each iteration (the original implementation; the paper
 holds σ = 0.3): the hybrid planner reached 113 of the suite's 140 episodes on seeds 0-19 with it,
 108 with the constant spread (docs/guide/deviations.md#policycem-population-and-spread)."""
@@ -117,7 +121,7 @@ class CEMOptions(SamplingOptions):
     elites: int = Field(10, ge=1, description="elite trajectories kept per iteration")
     keep_elites: bool = Field(True, description="carry the elites into the next iteration's population")
     sigma: float = Field(0.3, gt=0, description="initial standard deviation, normalised action units")
-    sigma_mode: Literal["constant", "adaptive"] = Field(
+    sigma_mode: SigmaMode = Field(
         DEFAULT_SIGMA_MODE, description="adaptive: sigma re-estimated as the elites' std each iteration, floored at 1e-4 "
         "(the original implementation, the default); constant: sigma held (the paper)"
     )
@@ -140,7 +144,7 @@ class RandomCEMOptions(CEMOptions):
     scale_population_by_horizon: bool = Field(True, description="sample population × 4T trajectories")
     veto: list[VetoEntry] = Field(default_factory=list, description="as PolicyCEM's; none by default (the published baseline)")
     veto_first: list[VetoEntry] = Field(default_factory=list, description="as PolicyCEM's; none by default (the published baseline)")
-    sigma_mode: Literal["constant", "adaptive"] = Field(
+    sigma_mode: SigmaMode = Field(
         "constant", description="as PolicyCEM's; constant by default (the published baseline)"
     )
 

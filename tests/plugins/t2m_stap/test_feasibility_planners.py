@@ -154,6 +154,15 @@ def test_the_adaptive_spread_narrows_onto_a_long_skeletons_optimum() -> None:
         assert error(adaptive).max() < error(constant).max()
 
 
+def test_policy_cem_adapts_its_spread_by_default_and_random_cem_keeps_the_published_one() -> None:
+    # docs/guide/deviations.md#policycem-population-and-spread: both start from the paper's sigma
+    assert (CEMOptions().sigma_mode, CEMOptions().sigma) == ("adaptive", 0.3)
+    assert (RandomCEMOptions().sigma_mode, RandomCEMOptions().sigma) == ("constant", 1.0)
+    assert CEMOptions(sigma_mode="constant").sigma_mode == "constant"
+    with pytest.raises(ValueError, match="sigma_mode"):
+        CEMOptions(sigma_mode="elites")
+
+
 def _blocked_pull():
     """A held hook, the blue box at (0.8, 0) and the red box at (0.6, 0.15), beside its way to the
     base; the pull straight at the base with y = 0 sweeps into the red box."""
