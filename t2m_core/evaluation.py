@@ -27,7 +27,7 @@ from t2m_core.executors import Executor, LocalExecutor, TaskCounts
 from t2m_core.run_records import read_result
 
 SEED_SPACING = 1000
-"""Base seed of seed index s: s × 1000 (resets reject at most a few hundred candidates)."""
+"""Base seed of seed index s: s × 1000, the width of a reset's first window of candidates (t2m_core.domain.sampling.candidate_windows)."""
 PAPER_SUCCESS = {"hybrid": 0.82, "best prior language planner": 0.13}
 """The paper's overall success rates on the suite (Text2Motion; the best earlier language planner)."""
 

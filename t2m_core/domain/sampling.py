@@ -22,6 +22,7 @@ verifies the propositions.
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -70,7 +71,9 @@ DROP_HEIGHT = 0.05
 ON_ATTEMPTS = 10
 """Draws of the ``on`` sampler before it fails and the candidate seed is rejected."""
 MAX_SEED_ATTEMPTS = 1000
-"""Candidate seeds tried before :func:`sample_initial_state` gives up."""
+"""Candidate seeds tried in each of a seed's two windows (:func:`candidate_windows`)."""
+OVERFLOW_SEED_BASE = 10**9
+"""Where the second windows of candidates begin: seed s continues at 10⁹ + 1000·s."""
 TIPPED_DROP_SCALE = 0.8
 """A tipped object is dropped from parent_top + 0.8·max(size_x, size_y) (``tippable``)."""
 FREE_DISTANCE_HORIZON = 0.15
@@ -136,6 +139,19 @@ class _Rejected(Exception):
 # --------------------------------------------------------------------------------------------------
 
 
+def candidate_windows(seed: int, max_attempts: int = MAX_SEED_ATTEMPTS) -> tuple[range, range]:
+    """The candidate seeds of ``seed``, in the order they are tried: ``seed, seed + 1, ...`` and, if
+    all of those are rejected, ``10⁹ + 1000·seed, ...`` (``max_attempts`` of each).
+
+    Where a task's scenes are rare (task6 accepts about one candidate in 220), a first window of
+    1000 is exhausted about once in a hundred seeds. The second windows of seeds below 10⁶ lie
+    beyond every first window, and those of distinct seeds do not meet (for ``max_attempts`` up to
+    1000), so seeds spaced 1000 apart (an evaluation's) never share a candidate.
+    """
+    overflow = OVERFLOW_SEED_BASE + MAX_SEED_ATTEMPTS * seed
+    return range(seed, seed + max_attempts), range(overflow, overflow + max_attempts)
+
+
 def sample_task(task: Any, seed: int, *, max_attempts: int = MAX_SEED_ATTEMPTS) -> SampledScene:
     """:func:`sample_initial_state` for a task (anything with ``objects`` and ``initial_state``)."""
     return sample_initial_state(task.objects, task.initial_state, seed, max_attempts=max_attempts)
@@ -153,12 +169,13 @@ def sample_initial_state(
     Args:
         objects: object names in observation order (``table`` first for every task).
         propositions: the initial-state propositions, any order (they are processed canonically).
-        seed: the first candidate seed; ``seed + 1``, ``seed + 2``... follow on rejection.
-        max_attempts: candidate seeds to try.
+        seed: the first candidate seed; ``seed + 1``, ``seed + 2``... follow on rejection, then a
+            second window (:func:`candidate_windows`).
+        max_attempts: candidate seeds to try in each window.
 
     Raises:
         PropositionError: a proposition names an unknown predicate or object.
-        SamplingError: no candidate in ``max_attempts`` seeds was accepted.
+        SamplingError: no candidate of either window was accepted.
     """
     names = tuple(objects)
     for name in names:
@@ -168,13 +185,14 @@ def sample_initial_state(
         validate_proposition(prop, names)
     if max_attempts < 1:
         raise ValueError(f"max_attempts must be at least 1, got {max_attempts}")
-    for attempt in range(max_attempts):
-        candidate = seed + attempt
+    windows = candidate_windows(seed, max_attempts)
+    for attempt, candidate in enumerate(itertools.chain(*windows)):
         scene = _sample_candidate(names, props, candidate)
         if scene is not None:
             return SampledScene(scene.state, scene.drop_state, scene.robot_pose, candidate, attempt, scene.tipped)
+    tried = " or ".join(f"{window.start}..{window.stop - 1}" for window in windows)
     raise SamplingError(
-        f"no valid initial state in seeds {seed}..{seed + max_attempts - 1} for {', '.join(map(str, props))}",
+        f"no valid initial state in seeds {tried} for {', '.join(map(str, props))}",
         "check that the propositions are satisfiable together (zones, free, infront, nonblocking), "
         "or allow more attempts",
     )

@@ -4,6 +4,7 @@ the samplers' geometry, and determinism per seed."""
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 
 import numpy as np
@@ -17,16 +18,20 @@ from t2m_core.domain.geometry import (
     quat_yaw,
     rotate,
 )
-from t2m_core.domain.propositions import Proposition, PropositionError
+from t2m_core.domain.propositions import Proposition, PropositionError, canonical_order
 from t2m_core.domain.sampling import (
     DROP_HEIGHT,
+    MAX_SEED_ATTEMPTS,
     SampledScene,
     SamplingError,
+    _sample_candidate,
+    candidate_windows,
     clear_cache,
     random_robot_pose,
     sample_initial_state,
     sample_task,
 )
+from t2m_core.evaluation import SEED_SPACING
 from t2m_core.tasks import list_tasks, load_task
 from t2m_core.testing.success_facts import bottom_z, centre_in_support_frame, top_z, world_bounds
 
@@ -308,13 +313,32 @@ def test_random_robot_pose_range() -> None:
 
 
 def test_unsatisfiable_and_invalid_inputs_fail_clearly() -> None:
-    with pytest.raises(SamplingError, match="no valid initial state in seeds 0..4"):
+    with pytest.raises(SamplingError, match=r"no valid initial state in seeds 0\.\.4 or 1000000000\.\.1000000004 "):
         sample_initial_state(["table", "red_box"], ["inworkspace(red_box)", "beyondworkspace(red_box)",
                                                      "on(red_box, table)"], 0, max_attempts=5)  # fmt: skip
     with pytest.raises(PropositionError, match="unknown object 'green_box'"):
         sample_initial_state(["table", "red_box"], ["on(green_box, table)"], 0)
     with pytest.raises(KeyError, match="unknown object 'green_box'"):
         sample_initial_state(["table", "green_box"], [], 0)
+
+
+def test_a_seed_whose_first_window_is_exhausted_continues_in_its_second() -> None:
+    # task6 of an evaluation's seed index 24: none of 24000..24999 is accepted (task6 takes about
+    # one candidate in 220), so the scene comes from the second window, 10^9 + 1000 x 24000 on
+    task = load_task("task6")
+    names, props = tuple(task.objects), canonical_order(task.initial_state)
+    assert all(_sample_candidate(names, props, candidate) is None for candidate in range(24000, 25000))
+    scene = sample_task(task, 24000)
+    assert 1_024_000_000 <= scene.accepted_seed < 1_024_001_000
+    assert scene.rejections == 1000 + scene.accepted_seed - 1_024_000_000
+    again = sample_task(task, scene.accepted_seed)
+    assert (again.accepted_seed, again.rejections) == (scene.accepted_seed, 0)
+
+
+def test_the_candidate_windows_of_seeds_spaced_1000_apart_never_meet() -> None:
+    windows = [set(itertools.chain(*candidate_windows(index * SEED_SPACING))) for index in range(40)]
+    assert all(len(window) == 2 * MAX_SEED_ATTEMPTS for window in windows)
+    assert len(set().union(*windows)) == 40 * 2 * MAX_SEED_ATTEMPTS
 
 
 def test_the_independent_checks_catch_a_wrong_sample() -> None:
