@@ -3,7 +3,7 @@
 configuration → components → reset → scene parse → goal prediction → task planning → closed-loop
 execution → ground-truth check → run directory. Every file of the run directory is written as the
 episode goes (the transcript and the plan tree line by line), and ``result.json`` last, also when
-the episode fails or is interrupted.
+the episode fails, is interrupted or stops on an error.
 """
 
 from __future__ import annotations
@@ -56,6 +56,7 @@ class EpisodeResult:
     stap_calls: int = 0
     accepted_seed: int | None = None
     interrupted: bool = False
+    error: str | None = None
     timings: Timings = field(default_factory=Timings)
 
     def as_dict(self) -> dict[str, Any]:
@@ -193,6 +194,9 @@ def run_episode(
     except KeyboardInterrupt:
         result.interrupted = True
         result.failure = result.failure or "interrupted"
+        raise
+    except Exception as error:  # a part of the product broke: recorded, and `t2m eval` reruns the episode
+        result.error = f"{type(error).__name__}: {error}"
         raise
     finally:
         simulator.close()

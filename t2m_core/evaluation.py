@@ -1,11 +1,11 @@
 """The evaluation grid behind ``t2m eval`` (docs/guide/planners.md#evaluating-planners).
 
 One episode per (planner, task, seed), each in its own run directory ``OUT/<planner>/<task>/seed<N>``.
-The grid is resumable: an episode whose ``result.json`` exists and was not interrupted is kept; any
-other is run again. A kept episode must have been run with the configuration the grid asks for
-(:func:`config_conflicts`), so that one table never mixes two configurations. Episodes are the
-tasks of an executor (local worker processes or a Ray cluster, :mod:`t2m_core.executors`), each
-writing its own run directory. Base seeds are spaced
+The grid is resumable: an episode whose ``result.json`` records its end (a success or a failure type)
+is kept; any other (killed, interrupted, stopped by an error) is run again. A kept episode must have
+been run with the configuration the grid asks for (:func:`config_conflicts`), so that one table
+never mixes two configurations. Episodes are the tasks of an executor (local worker processes or a
+Ray cluster, :mod:`t2m_core.executors`), each writing its own run directory. Base seeds are spaced
 :data:`SEED_SPACING` apart so that no two episodes of a task share an accepted scene (a reset walks
 from its base seed to the first accepted candidate).
 """
@@ -73,12 +73,17 @@ def grid(planners: Sequence[str], tasks: Sequence[str], seeds: Sequence[int]) ->
 
 
 def finished(episode: Episode, out: Path) -> dict[str, Any] | None:
-    """The episode's result if it ran to its end, else ``None`` (also for a torn ``result.json``)."""
+    """The episode's result if it ran to its end (it succeeded or has a failure type), else ``None``:
+    also for a torn ``result.json``, an interrupted episode and one stopped by an error (a record
+    without ``error`` but with neither success nor failure type was written by such an episode before
+    the field existed)."""
     try:
         result = read_result(episode.directory(out))
     except T2MError:
         return None
-    return None if result is None or result.get("interrupted") else result
+    if result is None or result.get("interrupted") or result.get("error"):
+        return None
+    return result if result.get("success") or result.get("failure_type") else None
 
 
 def config_conflicts(recorded: Mapping[str, Any], requested: Mapping[str, Any], prefix: str = "") -> list[str]:

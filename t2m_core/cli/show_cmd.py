@@ -36,8 +36,7 @@ def show(
         elif result.get("success"):
             console.print(f"[green]goal reached[/] ({_cost(result)})")
         else:
-            console.print(f"[red]{result.get('failure_type')}[/]: {escape(str(result.get('failure')))}; subgoal completion "
-                          f"{result.get('subgoal_completion', 0.0):.2f} ({_cost(result)})")
+            console.print(f"{_verdict(result)}; subgoal completion {result.get('subgoal_completion', 0.0):.2f} ({_cost(result)})")
         return
     episodes = episode_results(directory)
     if not episodes:
@@ -48,9 +47,20 @@ def show(
     for path, result in episodes:
         if failures_only and result.get("success"):
             continue
-        verdict = "[green]success[/]" if result.get("success") else f"[red]{result.get('failure_type')}[/]: {escape(str(result.get('failure')))}"
+        verdict = "[green]success[/]" if result.get("success") else _verdict(result)
         console.print(f"{path.relative_to(directory)}: {verdict} (plan of {len(result.get('plan') or [])}, "
                       f"{len(result.get('executed') or [])} executed)")
+
+
+def _verdict(result: dict) -> str:
+    """A failed episode in one line of console markup: its failure type and reason, or the error that stopped it."""
+    from rich.markup import escape
+
+    if result.get("error"):
+        return f"[red]stopped by an error[/]: {escape(str(result['error']))}"
+    if result.get("interrupted"):
+        return f"[yellow]interrupted[/]: {escape(str(result.get('failure')))}"
+    return f"[red]{result.get('failure_type')}[/]: {escape(str(result.get('failure')))}"
 
 
 def _cost(result: dict) -> str:

@@ -96,6 +96,42 @@ def test_an_unwritable_run_directory_is_one_line_of_error(t2m_registry, t2m_plug
     assert negative.exit_code == 2 and "greater than or equal to 0" in negative.output
 
 
+class UnresettableSimulator(ScriptedSimulator):
+    """A simulator whose every reset fails, as a task's scene sampler does when no candidate is accepted."""
+
+    def reset(self, task, *, seed):
+        from t2m_core.errors import T2MError
+
+        raise T2MError(f"no accepted scene for {task.id} from seed {seed}", "try another seed")
+
+
+def test_an_episode_stopped_by_an_error_says_so_and_is_run_again_by_a_resumed_evaluation(t2m_registry, t2m_plugin, tmp_path) -> None:
+    from t2m_core.evaluation import Episode, finished
+
+    install(t2m_plugin, RuleModel(goal=GOAL, sequences=SOLUTION))
+
+    class Broken:
+        @hookimpl
+        def t2m_register_simulators(self):
+            return [SimulatorSpec(name="unresettable", factory=lambda _o: UnresettableSimulator(success=True), summary="double")]
+
+    t2m_plugin(Broken(), name="broken")
+    episode = Episode("hybrid", "task0", 0)
+    directory = episode.directory(tmp_path)
+    result = runner.invoke(app, ["run", *SELECTION, "--sim", "unresettable", "--out", str(directory)])
+    assert result.exit_code != 0 and "no accepted scene for task0 from seed 0" in result.output
+    record = json.loads((directory / "result.json").read_text())
+    assert record["error"].startswith("T2MError: no accepted scene for task0 from seed 0")
+    assert record["success"] is False and record["failure_type"] is None and record["interrupted"] is False
+    assert finished(episode, tmp_path) is None  # resuming reruns it
+    del record["error"]  # the same record as written before the field existed
+    (directory / "result.json").write_text(json.dumps(record))
+    assert finished(episode, tmp_path) is None
+    (directory / "result.json").write_text(json.dumps({**record, "error": "T2MError: no accepted scene"}))
+    shown = runner.invoke(app, ["show", str(directory)])
+    assert shown.exit_code == 0 and "stopped by an error: T2MError: no accepted scene" in shown.output
+
+
 def test_a_run_replayed_from_its_transcript_takes_the_same_decisions(t2m_registry, t2m_plugin, tmp_path) -> None:
     import t2m_llm_replay.hooks
 

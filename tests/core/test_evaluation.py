@@ -22,13 +22,15 @@ def test_the_grid_spaces_base_seeds_and_names_a_directory_per_episode(tmp_path) 
 
 
 def test_only_episodes_that_ran_to_their_end_count_as_finished(tmp_path) -> None:
-    done, killed, torn = Episode("hybrid", "task0", 0), Episode("hybrid", "task0", 1), Episode("hybrid", "task0", 2)
-    for episode, content in ((done, json.dumps(result(True, None, 3.0))), (killed, json.dumps(result(False, None, 1.0, True))), (torn, "{")):
+    done, failed, killed, torn, broken, unended = (Episode("hybrid", "task0", s) for s in range(6))
+    contents = ((done, result(True, None, 3.0)), (failed, result(False, "execution_failure", 3.0)), (killed, result(False, None, 1.0, True)),
+                (torn, "{"), (broken, {**result(False, None, 1.0), "error": "RuntimeError: boom"}), (unended, result(False, None, 1.0)))
+    for episode, content in contents:
         episode.directory(tmp_path).mkdir(parents=True)
-        (episode.directory(tmp_path) / "result.json").write_text(content)
-    assert finished(done, tmp_path)["success"] is True
-    assert finished(killed, tmp_path) is None and finished(torn, tmp_path) is None
-    assert finished(Episode("hybrid", "task0", 3), tmp_path) is None
+        (episode.directory(tmp_path) / "result.json").write_text(content if isinstance(content, str) else json.dumps(content))
+    assert finished(done, tmp_path)["success"] is True and finished(failed, tmp_path)["failure_type"] == "execution_failure"
+    assert [finished(e, tmp_path) for e in (killed, torn, broken, unended)] == [None] * 4
+    assert finished(Episode("hybrid", "task0", 6), tmp_path) is None
 
 
 def test_the_table_counts_success_and_failure_types_per_task_and_overall(tmp_path) -> None:
