@@ -51,7 +51,8 @@ def read_plan_tree(directory: Path) -> list[dict[str, Any]]:
 
 
 def episode_results(evaluation: Path) -> list[tuple[Path, dict[str, Any]]]:
-    """Every finished episode of an evaluation directory (``<planner>/<task>/seed<N>``), sorted by path."""
+    """Every episode of an evaluation directory (``<planner>/<task>/seed<N>``) that wrote its ``result.json``
+    (finished, interrupted or stopped by an error), sorted by path."""
     found = []
     for path in sorted(Path(evaluation).glob("*/*/seed*/result.json")):
         result = read_result(path.parent)
