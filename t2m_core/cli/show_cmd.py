@@ -59,7 +59,7 @@ def _verdict(result: dict) -> str:
     if result.get("error"):
         return f"[red]stopped by an error[/]: {escape(str(result['error']))}"
     if result.get("interrupted"):
-        return f"[yellow]interrupted[/]: {escape(str(result.get('failure')))}"
+        return "[yellow]interrupted[/] (Ctrl-C)"
     return f"[red]{result.get('failure_type')}[/]: {escape(str(result.get('failure')))}"
 
 
