@@ -72,6 +72,7 @@ def calibrate_skill(skill: str, data: Path, checkpoint: Path) -> dict[str, Any]:
 
     q_ensemble = load_q(Path(checkpoint)).eval()
     validation_dir, invalid_dir = Path(data) / skill / "validation", Path(data) / skill / "invalid"
+    _refuse_exposed_pairs(Path(checkpoint), invalid_dir, manifest_digest(invalid_dir))
     valid_mean, valid_var, _ = ensemble_statistics(q_ensemble, SkillTensors.load(validation_dir))
     invalid_mean, invalid_var, invalid_min = ensemble_statistics(q_ensemble, SkillTensors.load(invalid_dir))
     threshold = choose_threshold(valid_mean, valid_var)
@@ -97,6 +98,24 @@ def calibrate_skill(skill: str, data: Path, checkpoint: Path) -> dict[str, Any]:
     plot_calibration(Path(checkpoint) / PLOT_NAME, skill, (valid_mean, valid_var), (invalid_mean, invalid_var), threshold)
     update_config(Path(checkpoint), ood=result)
     return result
+
+
+def _refuse_exposed_pairs(checkpoint: Path, invalid_dir: Path, digest: str) -> None:
+    """Detection measured on the invalid pairs the ensemble learnt to flag (OOD exposure) would
+    overstate it.
+
+    Raises:
+        T2MError: ``invalid_dir`` is one of the Q-ensemble's exposure splits.
+    """
+    from t2m_core.errors import T2MError
+    from t2m_skills_tableenv.checkpoints import read_config
+
+    exposed = read_config(checkpoint).get("models", {}).get("q", {}).get("data", {}).get("ood_exposure", [])
+    if digest in exposed:
+        raise T2MError(
+            f"{invalid_dir} is the invalid split {checkpoint}'s Q-ensemble was exposed to in training: its detection rate there says nothing",
+            "calibrate on another invalid split (t2m datagen --split invalid with another --seed)",
+        )
 
 
 def plot_calibration(path: Path, skill: str, valid: tuple[np.ndarray, np.ndarray], invalid: tuple[np.ndarray, np.ndarray], threshold: float) -> None:

@@ -65,6 +65,9 @@ class StageSettings(BaseModel):
     anchor_weight: float = Field(
         1.0, ge=0, description="Q-ensemble only, with anchor data: weight of the anchor loss against the labelled loss"
     )
+    exposure_weight: float = Field(
+        1.0, ge=0, description="Q-ensemble only, with OOD exposure data: weight of the exposure loss against the labelled loss"
+    )
     q_network: Literal["mlp", "relational"] = Field(
         "mlp",
         description="Q-ensemble only: the published MLP, or the relational network that reads the other objects "
@@ -134,21 +137,53 @@ class Anchor:
         return nn.functional.binary_cross_entropy_with_logits(network(states, actions), targets)
 
 
+EXPOSURE_MONITOR_PAIRS = 2000
+"""Exposure pairs whose mean member variance every evaluation records (``exposure_variance``)."""
+
+
+@dataclass
+class Exposure:
+    """Outlier exposure of the OOD detector (docs/guide/skills.md#ood-exposure): on symbolically
+    invalid pairs, the members are taught to disagree, so that the variance detector sees them.
+
+    Member ``b`` learns the probability ``b mod 2`` there: half the members say 0, half say 1, a
+    population variance of 0.25 (the largest possible) and a pessimistic (min-of-8) value of 0.
+
+    Attributes:
+        data: invalid pairs (``t2m datagen --split invalid``), states and uniform actions.
+        weight: the exposure loss's weight against the labelled loss.
+    """
+
+    data: SkillTensors
+    weight: float
+
+    def loss(self, network: nn.Module, index: torch.Tensor, generator: torch.Generator) -> torch.Tensor:
+        """BCE of each member to its target (``b mod 2``) on the invalid pairs ``index``."""
+        logits = network(self.data.states(index, generator), self.data.actions[index])  # (N, B)
+        targets = (torch.arange(logits.shape[1]) % 2).to(logits.dtype).expand_as(logits)
+        return nn.functional.binary_cross_entropy_with_logits(logits, targets)
+
+
 class QStage(Stage):
     """BCE of every member's sigmoid to the reward. All members see the same batch, or with
     ``ensemble_batches="bootstrap"`` member ``b`` sees the same batch positions of its own resample
     (with replacement, fixed by the seed) of the training set. With an :class:`Anchor`, each step adds
-    its weighted loss on a batch of anchor states of the same size."""
+    its weighted loss on a batch of anchor states of the same size, and with an :class:`Exposure` its
+    weighted loss on a batch of invalid pairs of the same size. ``labelled=False`` drops the labelled
+    loss (``train`` then only sizes the steps' batches): an anchored, exposed ensemble learns what the
+    starting one predicted and where the invalid pairs are, and nothing else."""
 
     model = "q"
 
     def __init__(
         self, train: SkillTensors, validation: SkillTensors, settings: StageSettings, network: QEnsemble | RelationalQEnsemble | None = None,
-        anchor: Anchor | None = None,
+        anchor: Anchor | None = None, exposure: Exposure | None = None, labelled: bool = True,
     ) -> None:
+        if not labelled and anchor is None:
+            raise ValueError("an unlabelled Q stage needs anchor data to learn from")
         self.train, self.validation = train, validation
         self.network = network if network is not None else QEnsemble()
-        self.anchor = anchor
+        self.anchor, self.exposure, self.labelled = anchor, exposure, labelled
         self.resample: torch.Tensor | None = None
         if settings.ensemble_batches == "bootstrap":
             generator = torch.Generator().manual_seed(settings.seed + 1)
@@ -164,6 +199,23 @@ class QStage(Stage):
         return {"network": self.network, "optimizer": self.optimizer, "schedule": _SchedulerModule(self.schedule)}
 
     def step(self, index: torch.Tensor, generator: torch.Generator) -> dict[str, float]:
+        loss, record = torch.zeros(()), {}
+        if self.labelled:
+            loss = self._labelled_loss(index, generator)
+            record["loss"] = loss.item()
+        for name, term in (("anchor", self.anchor), ("exposure", self.exposure)):
+            if term is not None:
+                term_index = torch.randint(len(term.data), (index.shape[0],), generator=generator)
+                term_loss = term.loss(self.network, term_index, generator)
+                loss = loss + term.weight * term_loss
+                record[f"{name}_loss"] = term_loss.item()
+        self.optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        self.optimizer.step()
+        self.schedule.step()
+        return record
+
+    def _labelled_loss(self, index: torch.Tensor, generator: torch.Generator) -> torch.Tensor:
         if self.resample is None:
             states = self.train.states(index, generator)
             logits = self.network(states, self.train.actions[index])
@@ -174,22 +226,15 @@ class QStage(Stage):
             states = self.train.states(flat, generator).reshape(*members.shape, -1)
             logits = self.network(states, self.train.actions[flat].reshape(*members.shape, -1))
             targets = self.train.rewards[members].T
-        loss = nn.functional.binary_cross_entropy_with_logits(logits, targets)
-        record = {"loss": loss.item()}
-        if self.anchor is not None:
-            anchor_index = torch.randint(len(self.anchor.data), (index.shape[0],), generator=generator)
-            anchor_loss = self.anchor.loss(self.network, anchor_index, generator)
-            loss = loss + self.anchor.weight * anchor_loss
-            record["anchor_loss"] = anchor_loss.item()
-        self.optimizer.zero_grad(set_to_none=True)
-        loss.backward()
-        self.optimizer.step()
-        self.schedule.step()
-        return record
+        return nn.functional.binary_cross_entropy_with_logits(logits, targets)
 
     @torch.no_grad()
     def evaluate(self) -> Evaluation:
         metrics = q_metrics(self.network, self.validation)
+        if self.exposure is not None:
+            sample = self.exposure.data.head(EXPOSURE_MONITOR_PAIRS)
+            probabilities = self.network.probabilities(sample.states(), sample.actions)
+            metrics["exposure_variance"] = float(probabilities.var(dim=1, unbiased=False).mean())
         return Evaluation(-metrics["loss"], metrics)
 
 
@@ -465,6 +510,7 @@ def train_skill(
     more_train: tuple[Path, ...] = (),
     init_from: Path | None = None,
     anchor: tuple[Path, ...] = (),
+    ood_exposure: tuple[Path, ...] = (),
 ) -> dict[str, Any]:
     """Train ``models`` (in the order q, policy, dynamics) of ``skill`` from the dataset ``data``
     (``DIR`` of ``t2m datagen``) into the checkpoint directory ``checkpoint``.
@@ -481,6 +527,11 @@ def train_skill(
     the ``init_from`` ensemble's predictions instead of their labels (a directory also given as
     ``data`` or ``more_train`` is then left out of the labelled set): fine-tuning on a new situation
     without forgetting the others (docs/guide/skills.md#anchored-fine-tuning).
+
+    ``ood_exposure`` names dataset directories whose ``<skill>/invalid`` splits the Q-ensemble's members
+    learn to disagree on (:class:`Exposure`; docs/guide/skills.md#ood-exposure). With anchors, the
+    labelled set may then be empty (every training split anchored): the ensemble keeps its
+    predictions and learns only the exposure.
 
     The policy is selected in episodes simulated by the simulator plugin ``simulator`` when its
     ``selection_episodes`` is positive (the default).
@@ -505,14 +556,19 @@ def train_skill(
     more_dirs = tuple(Path(d) / skill / "train" for d in more_train)
     anchored = {d.resolve() for d in anchor_dirs}
     labelled = [d for d in (train_dir, *more_dirs) if d.resolve() not in anchored]
-    if not labelled:
+    exposure_dirs = tuple(Path(d) / skill / "invalid" for d in ood_exposure)
+    if exposure_dirs and "q" not in models:
+        raise T2MError("OOD exposure data train the Q-ensemble only", "add --model q (or all)")
+    if not labelled and not exposure_dirs:
         raise T2MError("every training split is anchor data: nothing is left to learn from labels", "add --more-train with the new situation's data")
-    train, validation = SkillTensors.load(*labelled), SkillTensors.load(validation_dir)
+    train, validation = SkillTensors.load(*(labelled or anchor_dirs)), SkillTensors.load(validation_dir)
     digests: dict[str, Any] = {"train": manifest_digest(train_dir), "validation": manifest_digest(validation_dir)}
     if more_dirs:
         digests["more_train"] = [manifest_digest(d) for d in more_dirs]
     if anchor_dirs:
         digests["anchor"] = [manifest_digest(d) for d in anchor_dirs]
+    if exposure_dirs:
+        digests["ood_exposure"] = [manifest_digest(d) for d in exposure_dirs]
     if init_from is not None:
         from t2m_core.data.proposals import checkpoint_digest
 
@@ -529,8 +585,9 @@ def train_skill(
             anchor_data = None
             if anchor_dirs:
                 anchor_data = Anchor(SkillTensors.load(*anchor_dirs), load_q(Path(init_from) / skill).eval(), stage_settings.anchor_weight)
+            exposure = Exposure(SkillTensors.load(*exposure_dirs), stage_settings.exposure_weight) if exposure_dirs else None
             network = build_q(q_architecture(skill, stage_settings.q_network))
-            stage: Stage = QStage(stage_train, validation, stage_settings, network, anchor_data)
+            stage: Stage = QStage(stage_train, validation, stage_settings, network, anchor_data, exposure, labelled=bool(labelled))
         elif model == "policy":
             q_ensemble = load_q(checkpoint)
             simulate = _simulated_selection(skill, simulator, stage_settings.selection_episodes) if stage_settings.selection_episodes else None

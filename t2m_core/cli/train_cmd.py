@@ -74,6 +74,14 @@ def train(
     anchor_weight: Annotated[
         float | None, typer.Option("--anchor-weight", min=0.0, help="Weight of the anchor loss against the labelled loss (default 1).")
     ] = None,
+    ood_exposure: Annotated[
+        list[Path] | None,
+        typer.Option("--ood-exposure", help="A dataset directory whose invalid split the Q-ensemble's members learn to disagree on, "
+                     "so that the OOD detector flags such pairs (repeatable; calibrate on another invalid split)."),
+    ] = None,
+    exposure_weight: Annotated[
+        float | None, typer.Option("--exposure-weight", min=0.0, help="Weight of the OOD exposure loss against the labelled loss (default 1).")
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the results as JSON on stdout.")] = False,
 ) -> None:
     """Train a skill library's models on a dataset. Rerunning the same command after a kill resumes
@@ -85,19 +93,20 @@ def train(
     chosen = (
         ("steps", steps), ("eval_every", eval_every), ("learning_rate", learning_rate), ("train_size", train_size), ("ensemble_batches", ensemble_batches),
         ("selection_episodes", selection_episodes), ("q_network", q_network), ("anchor_weight", anchor_weight),
+        ("exposure_weight", exposure_weight),
     )
     overrides = {key: value for key, value in chosen if value is not None}
     results = {}
     for name in _skills(skill):
         results[name] = _train_with_progress(trainer, name, models, data, out / name, overrides, sim, tuple(more_train or ()), init_from,
-                                             tuple(anchor or ()))
+                                             tuple(anchor or ()), tuple(ood_exposure or ()))
     if as_json:
         typer.echo(json.dumps(results, indent=2))
 
 
 def _train_with_progress(
     trainer: Any, skill: str, models: tuple[str, ...], data: Path, checkpoint: Path, overrides: dict[str, Any], sim: str, more_train: tuple[Path, ...],
-    init_from: Path | None = None, anchor: tuple[Path, ...] = (),
+    init_from: Path | None = None, anchor: tuple[Path, ...] = (), ood_exposure: tuple[Path, ...] = (),
 ) -> dict[str, Any]:
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
@@ -110,7 +119,7 @@ def _train_with_progress(
         tasks = {m: bar.add_task(f"{skill} {m}", total=None, metric="") for m in models}
 
         def update(model: str, step: int, total: int, record: dict[str, float]) -> None:
-            shown = {k: v for k, v in record.items() if k in ("loss", "train_anchor_loss", "precision", "recall", "q_min_mean", "simulated_success")}
+            shown = {k: v for k, v in record.items() if k in ("loss", "train_anchor_loss", "exposure_variance", "precision", "recall", "q_min_mean", "simulated_success")}
             bar.update(tasks[model], completed=step, total=total, metric=" ".join(f"{k} {v:.4g}" for k, v in shown.items()))
 
         # libraries without these keywords still train on one dataset from scratch
@@ -119,6 +128,8 @@ def _train_with_progress(
             extra["init_from"] = init_from
         if anchor:
             extra["anchor"] = anchor
+        if ood_exposure:
+            extra["ood_exposure"] = ood_exposure
         result = trainer(skill, models, data, checkpoint, overrides, on_progress=update, simulator=sim, **extra)
     for model, outcome in result.items():
         console.print(f"{skill} {model}: best at step {outcome['best_step']}: {outcome['best']} ({outcome['steps_per_second'] or '-'} steps/s)")

@@ -256,3 +256,72 @@ def test_anchor_data_need_a_starting_ensemble_and_labelled_data(tmp_path) -> Non
             train_skill("pick", models, tmp_path / "data", tmp_path / "out", init_from=tmp_path / "ship", anchor=(tmp_path / "old",))
     with pytest.raises(T2MError, match="nothing is left to learn"):
         train_skill("pick", ("q",), tmp_path / "data", tmp_path / "out", init_from=tmp_path / "ship", anchor=(tmp_path / "data",))
+
+
+def _invalid_pairs(count: int, seed: int) -> SkillTensors:
+    """Pairs no valid call produces: the synthetic problem's states with one feature far outside the
+    encoding's [−0.5, 0.5] (row 1, feature 6 at 1.5), as a symbolically invalid call's rows are."""
+    data = synthetic(count, seed)
+    data.rows[:, 1, 6] = 1.5
+    data.rewards = torch.zeros(count)
+    return data
+
+
+def _member_variance(network: QEnsemble, data: SkillTensors) -> torch.Tensor:
+    with torch.no_grad():
+        return network.probabilities(data.states(), data.actions).var(dim=1, unbiased=False)
+
+
+def test_ood_exposure_makes_the_members_disagree_on_invalid_pairs_and_keeps_the_valid_predictions(tmp_path) -> None:
+    from t2m_skills_tableenv.calibration import choose_threshold
+    from t2m_skills_tableenv.training import Exposure
+
+    torch.manual_seed(0)
+    train, validation = synthetic(2048, 0), synthetic(512, 1)
+    exposed, held_out = _invalid_pairs(2048, 2), _invalid_pairs(512, 3)
+    settings = StageSettings(steps=600, batch_size=128, learning_rate=3e-3, eval_every=300)
+    teacher = QStage(train, validation, settings)
+    run_stage(teacher, settings, tmp_path / "teacher")
+    teacher_threshold = choose_threshold(
+        teacher.network.probabilities(validation.states(), validation.actions).mean(dim=1).detach().numpy(),
+        _member_variance(teacher.network, validation).numpy(),
+    )
+    assert float((_member_variance(teacher.network, held_out) >= teacher_threshold).float().mean()) < 0.5
+
+    network = QEnsemble()
+    network.load_state_dict(teacher.network.state_dict())
+    # no labelled data: the teacher's own predictions on the train states, and the exposure
+    stage = QStage(train, validation, settings, network, Anchor(train, teacher.network.eval(), 1.0), Exposure(exposed, 1.0), labelled=False)
+    run_stage(stage, settings, tmp_path / "exposed")
+    variance = _member_variance(stage.network, held_out)
+    # members b mod 2 learn 0 and 1 there: the variance of four 0s and four 1s is 0.25
+    assert float(variance.mean()) > 0.2
+    probabilities = stage.network.probabilities(validation.states(), validation.actions).detach()
+    threshold = choose_threshold(probabilities.mean(dim=1).numpy(), _member_variance(stage.network, validation).numpy())
+    assert float((variance >= threshold).float().mean()) > 0.9
+    assert float(probabilities.min(dim=1).values.mean()) >= 0.0
+    assert _accuracy(stage.network, validation) > _accuracy(teacher.network, validation) - 0.03
+    curve = [json.loads(line) for line in (tmp_path / "exposed" / "metrics-q.jsonl").read_text().splitlines()]
+    assert "train_exposure_loss" in curve[-1] and "train_loss" not in curve[-1] and curve[-1]["exposure_variance"] > 0.2
+    held_minimum = stage.network.probabilities(held_out.states(), held_out.actions).min(dim=1).values.detach()
+    assert float(held_minimum.max()) < 0.5  # planning's pessimistic value still rejects every one
+
+
+def test_an_unlabelled_q_stage_needs_anchors_and_exposure_needs_the_q_ensemble(tmp_path) -> None:
+    from t2m_skills_tableenv.training import train_skill
+
+    settings = StageSettings(steps=10, batch_size=8, learning_rate=1e-3)
+    with pytest.raises(ValueError, match="anchor"):
+        QStage(synthetic(64, 0), synthetic(64, 1), settings, labelled=False)
+    with pytest.raises(T2MError, match="--model q"):
+        train_skill("pick", ("dynamics",), tmp_path / "data", tmp_path / "out", ood_exposure=(tmp_path / "invalid",))
+
+
+def test_calibration_refuses_the_invalid_split_the_ensemble_was_exposed_to(tmp_path) -> None:
+    from t2m_skills_tableenv.calibration import _refuse_exposed_pairs
+    from t2m_skills_tableenv.checkpoints import update_config
+
+    update_config(tmp_path, skill="pick", models={"q": {"data": {"ood_exposure": ["abc"]}}})
+    _refuse_exposed_pairs(tmp_path, tmp_path / "other" / "pick" / "invalid", "def")  # another split: fine
+    with pytest.raises(T2MError, match="(?s)exposed to in training.*another --seed"):
+        _refuse_exposed_pairs(tmp_path, tmp_path / "data" / "pick" / "invalid", "abc")
