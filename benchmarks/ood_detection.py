@@ -30,6 +30,9 @@ SKILLS = ("pick", "place", "pull", "push")
 @torch.no_grad()
 def measure(checkpoints: Path, data: Path) -> dict[str, dict[str, float]]:
     """skill -> the figures above, for the library in ``checkpoints``."""
+    from dataclasses import replace
+
+    from t2m_skills_tableenv.calibration import ensemble_statistics
     from t2m_skills_tableenv.dataset import SkillTensors
     from t2m_skills_tableenv.library import load_library
     from t2m_skills_tableenv.options import TableEnvSkillsOptions
@@ -41,15 +44,13 @@ def measure(checkpoints: Path, data: Path) -> dict[str, dict[str, float]]:
         skill = library[name]
         invalid = SkillTensors.load(data / name / "invalid")
         validation = SkillTensors.load(data / name / "validation")
-        states = invalid.states()
         row = {"threshold": skill.ood_threshold}
-        for label, actions in (("uniform", invalid.actions), ("policy", skill.policy(states))):
-            q = skill.q_values(states, actions)
-            flagged = q.var(dim=1, unbiased=False) >= skill.ood_threshold
-            row[f"detection_{label}"] = float(flagged.float().mean())
-            row[f"rejected_{label}"] = float(((q.min(dim=1).values < 0.5) | flagged).float().mean())
-        valid_q = skill.q_values(validation.states(), validation.actions)
-        row["false_positives"] = float((valid_q.var(dim=1, unbiased=False) >= skill.ood_threshold).float().mean())
+        for label, pairs in (("uniform", invalid), ("policy", replace(invalid, actions=skill.policy(invalid.states())))):
+            _, variance, minimum = ensemble_statistics(skill.q_ensemble, pairs)
+            flagged = variance >= skill.ood_threshold
+            row[f"detection_{label}"] = float(flagged.mean())
+            row[f"rejected_{label}"] = float(((minimum < 0.5) | flagged).mean())
+        row["false_positives"] = float((ensemble_statistics(skill.q_ensemble, validation)[1] >= skill.ood_threshold).mean())
         row.update({f"validation_{k}": v for k, v in q_metrics(skill.q_ensemble, validation).items()})
         row["invalid_pairs"], row["validation_pairs"] = len(invalid), len(validation)
         results[name] = row
