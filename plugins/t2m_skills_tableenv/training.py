@@ -561,7 +561,9 @@ def train_skill(
         raise T2MError("OOD exposure data train the Q-ensemble only", "add --model q (or all)")
     if not labelled and not exposure_dirs:
         raise T2MError("every training split is anchor data: nothing is left to learn from labels", "add --more-train with the new situation's data")
-    train, validation = SkillTensors.load(*(labelled or anchor_dirs)), SkillTensors.load(validation_dir)
+    anchor_states = SkillTensors.load(*anchor_dirs) if anchor_dirs else None
+    # without labels, the anchor states only size the steps' batches
+    train, validation = SkillTensors.load(*labelled) if labelled else anchor_states, SkillTensors.load(validation_dir)
     digests: dict[str, Any] = {"train": manifest_digest(train_dir), "validation": manifest_digest(validation_dir)}
     if more_dirs:
         digests["more_train"] = [manifest_digest(d) for d in more_dirs]
@@ -583,8 +585,8 @@ def train_skill(
         stage_train = train.head(stage_settings.train_size)
         if model == "q":
             anchor_data = None
-            if anchor_dirs:
-                anchor_data = Anchor(SkillTensors.load(*anchor_dirs), load_q(Path(init_from) / skill).eval(), stage_settings.anchor_weight)
+            if anchor_states is not None:
+                anchor_data = Anchor(anchor_states, load_q(Path(init_from) / skill).eval(), stage_settings.anchor_weight)
             exposure = Exposure(SkillTensors.load(*exposure_dirs), stage_settings.exposure_weight) if exposure_dirs else None
             network = build_q(q_architecture(skill, stage_settings.q_network))
             stage: Stage = QStage(stage_train, validation, stage_settings, network, anchor_data, exposure, labelled=bool(labelled))
