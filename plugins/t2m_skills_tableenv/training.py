@@ -596,32 +596,41 @@ def train_skill(
             stage = PolicyStage(stage_train, validation, q_ensemble, stage_settings, simulate)
         else:
             stage = DynamicsStage(stage_train, validation, stage_settings)
-        if init_from is not None:
-            if model == "q":
-                _check_same_q_network(Path(init_from) / skill, stage_settings.q_network)
+        distilled = model == "q" and init_from is not None and _distills(Path(init_from) / skill, stage_settings.q_network, bool(anchor_dirs))
+        if init_from is not None and not distilled:
             load_weights(Path(init_from) / skill / WEIGHT_FILES[model], stage.network)
         total = stage_settings.steps
         report = (lambda step, record, model=model, total=total: on_progress(model, step, total, record)) if on_progress else None
         results[model] = run_stage(stage, stage_settings, checkpoint, on_progress=report)
-        record_stage(checkpoint, skill, model, stage_settings, results[model], {**digests, "train_transitions": len(stage_train), "validation_transitions": len(validation)})
+        stage_data = {**digests, "train_transitions": len(stage_train), "validation_transitions": len(validation)}
+        if distilled:
+            stage_data["distilled"] = True  # init_from taught the anchors; its weights did not start this network
+        record_stage(checkpoint, skill, model, stage_settings, results[model], stage_data)
     return results
 
 
-def _check_same_q_network(directory: Path, q_network: str) -> None:
-    """Fine-tuning keeps the Q-ensemble's network.
+def _distills(directory: Path, q_network: str, anchored: bool) -> bool:
+    """Whether the Q-ensemble of ``directory`` is distilled into a fresh network of another kind
+    (``q_network``) instead of fine-tuned: the new network then learns the starting ensemble's
+    predictions on the anchor states (:class:`Anchor`), member for member, from a fresh
+    initialisation (docs/guide/skills.md#distilling-into-another-network).
 
     Raises:
-        T2MError: the starting checkpoint holds the other network, with the flag that matches it.
+        T2MError: the networks differ and there are no anchors to distil on.
     """
     from t2m_skills_tableenv.checkpoints import q_architecture_of
     from t2m_skills_tableenv.networks import q_network_name
 
     starting = q_network_name(q_architecture_of(directory))
-    if starting != q_network:
+    if starting == q_network:
+        return False
+    if not anchored:
         raise T2MError(
             f"{directory} holds a {starting} Q-ensemble and the settings train a {q_network} one",
-            f"fine-tune it with --q-network {starting}, or train a {q_network} ensemble without --init-from",
+            f"fine-tune it with --q-network {starting}, distil it into a {q_network} one with --anchor DATA, "
+            f"or train a {q_network} ensemble without --init-from",
         )
+    return True
 
 
 def _with_overrides(settings: StageSettings, overrides: dict[str, Any]) -> StageSettings:

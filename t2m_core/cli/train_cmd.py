@@ -69,7 +69,8 @@ def train(
     anchor: Annotated[
         list[Path] | None,
         typer.Option("--anchor", help="A dataset directory whose train split the Q-ensemble learns from the --init-from ensemble's "
-                     "predictions instead of its labels, so that fine-tuning keeps what it knew there (repeatable)."),
+                     "predictions instead of its labels, so that fine-tuning keeps what it knew there (repeatable). With a --q-network "
+                     "other than the --init-from ensemble's, a fresh network is distilled from it there."),
     ] = None,
     anchor_weight: Annotated[
         float | None, typer.Option("--anchor-weight", min=0.0, help="Weight of the anchor loss against the labelled loss (default 1).")

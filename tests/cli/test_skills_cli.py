@@ -161,10 +161,18 @@ def test_a_relational_ensemble_is_trained_loaded_and_fine_tuned_only_as_one(data
     assert isinstance(load_q(base / "pick"), RelationalQEnsemble)
     mixed = runner.invoke(app, ["train", *common, "--init-from", str(base), "--out", str(tmp_path / "mixed")])
     assert mixed.exit_code != 0
-    assert "holds a relational Q-ensemble and the settings train a mlp one" in mixed.output and "--q-network relational" in mixed.output
+    assert "holds a relational Q-ensemble and the settings train a mlp one" in mixed.output and "--q-network relational" in mixed.output and "--anchor" in mixed.output
     assert not (tmp_path / "mixed" / "pick" / "q_ensemble.safetensors").exists()
     tuned = runner.invoke(app, ["train", *common, "--q-network", "relational", "--init-from", str(base), "--out", str(tmp_path / "tuned")])
     assert tuned.exit_code == 0, tuned.output
+    # with anchors, another network is distilled from the starting one: a fresh MLP learns its predictions
+    other = tmp_path / "other"
+    shutil.copytree(dataset / "pick" / "train", other / "pick" / "train")
+    distilled = runner.invoke(app, ["train", *common, "--init-from", str(base), "--anchor", str(other), "--out", str(tmp_path / "mlp")])
+    assert distilled.exit_code == 0, distilled.output
+    q = json.loads((tmp_path / "mlp" / "pick" / "config.json").read_text())["models"]["q"]
+    assert q["architecture"]["type"] == "QEnsemble" and q["data"]["distilled"] is True
+    assert "distilled" not in json.loads((tmp_path / "tuned" / "pick" / "config.json").read_text())["models"]["q"]["data"]
     unknown = runner.invoke(app, ["train", *common, "--q-network", "transformer", "--out", str(tmp_path / "x")])
     assert unknown.exit_code != 0 and "q_network" in unknown.output
 

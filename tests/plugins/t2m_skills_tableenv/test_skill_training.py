@@ -307,6 +307,30 @@ def test_ood_exposure_makes_the_members_disagree_on_invalid_pairs_and_keeps_the_
     assert float(held_minimum.max()) < 0.5  # planning's pessimistic value still rejects every one
 
 
+def test_an_ensemble_is_distilled_into_a_fresh_relational_one_member_for_member(tmp_path) -> None:
+    from t2m_skills_tableenv.networks import RelationalQEnsemble, q_architecture, build_q
+
+    torch.manual_seed(0)
+    train, validation = synthetic(2048, 0), synthetic(512, 1)
+    settings = StageSettings(steps=600, batch_size=128, learning_rate=3e-3, eval_every=300)
+    teacher = QStage(train, validation, settings)
+    run_stage(teacher, settings, tmp_path / "teacher")
+    student = build_q(q_architecture("pick", "relational"))
+    assert isinstance(student, RelationalQEnsemble)
+
+    def member_decisions(network: torch.nn.Module) -> torch.Tensor:
+        with torch.no_grad():
+            return network.probabilities(validation.states(), validation.actions) > 0.5  # (N, B)
+
+    target = member_decisions(teacher.network)
+    assert float((member_decisions(student) == target).float().mean()) < 0.7  # a fresh network does not agree yet
+    stage = QStage(train, validation, settings, student, Anchor(train, teacher.network.eval(), 1.0), labelled=False)
+    run_stage(stage, settings, tmp_path / "student")
+    # each member learns its own teacher member's answers, not the labels' (the teacher's members differ)
+    assert float((member_decisions(stage.network) == target).float().mean()) > 0.9
+    assert _accuracy(stage.network, validation) > 0.8
+
+
 def test_an_unlabelled_q_stage_needs_anchors_and_exposure_needs_the_q_ensemble(tmp_path) -> None:
     from t2m_skills_tableenv.training import train_skill
 
