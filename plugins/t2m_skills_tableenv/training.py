@@ -440,7 +440,10 @@ def run_stage(
                 on_progress(step, record)
     # a rerun of a finished stage runs no step: it has no rate to report
     steps_per_second = round((step - first_step) / (time.perf_counter() - started), 1) if step > first_step else None
-    return {"best_step": best["step"], "best": best["metrics"], "steps": step, "scheduled_steps": settings.steps, "steps_per_second": steps_per_second}
+    return {
+        "best_step": best["step"], "best": best["metrics"], "steps": step, "scheduled_steps": settings.steps, "steps_per_second": steps_per_second,
+        "threads": torch.get_num_threads(),
+    }
 
 
 def _stopped_early(settings: StageSettings, step: int, best_step: int) -> bool:

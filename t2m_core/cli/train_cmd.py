@@ -83,10 +83,19 @@ def train(
     exposure_weight: Annotated[
         float | None, typer.Option("--exposure-weight", min=0.0, help="Weight of the OOD exposure loss against the labelled loss (default 1).")
     ] = None,
+    threads: Annotated[
+        int | None,
+        typer.Option("--threads", min=1, help="Torch / OpenMP threads of the training (default: all cores; 1 beside other busy jobs, "
+                     "whose cores the idle threads would spin on)."),
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the results as JSON on stdout.")] = False,
 ) -> None:
     """Train a skill library's models on a dataset. Rerunning the same command after a kill resumes
     from the last evaluation."""
+    if threads is not None:
+        from t2m_core.executors.local import limit_threads
+
+        limit_threads(threads)
     models = MODEL_NAMES if model == "all" else (model,)
     if model != "all" and model not in MODEL_NAMES:
         raise T2MError(f"unknown model {model!r}", f"use one of: {', '.join(MODEL_NAMES)}, all")

@@ -88,7 +88,7 @@ class LocalExecutor(Executor):
 
     def _pool(self) -> ProcessPoolExecutor:
         """A fresh pool whose workers each get their :func:`worker_threads` share of the cores."""
-        return ProcessPoolExecutor(max_workers=self.workers, initializer=_limit_threads, initargs=(worker_threads(self.workers),))
+        return ProcessPoolExecutor(max_workers=self.workers, initializer=limit_threads, initargs=(worker_threads(self.workers),))
 
 
 def worker_threads(workers: int, cores: int | None = None) -> int:
@@ -97,9 +97,10 @@ def worker_threads(workers: int, cores: int | None = None) -> int:
     return max(1, (cores or os.cpu_count() or 1) // workers)
 
 
-def _limit_threads(threads: int) -> None:
-    """Pool-worker initialiser: at most ``threads`` OpenMP/BLAS threads, and as many torch threads
-    when torch is already loaded (a forked worker inherits the parent's pool size)."""
+def limit_threads(threads: int) -> None:
+    """At most ``threads`` OpenMP/BLAS threads in this process, and as many torch threads when torch
+    is already loaded (a forked worker inherits the parent's pool size). The pool workers'
+    initialiser, and ``t2m train --threads``."""
     for name in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
         os.environ[name] = str(threads)
     torch = sys.modules.get("torch")

@@ -4,6 +4,7 @@ learning-curve prefix, record it, and calibrate what planning would do with inva
 from __future__ import annotations
 
 import json
+import os
 import shutil
 
 import numpy as np
@@ -69,6 +70,27 @@ def test_a_prefix_longer_than_the_split_is_a_clear_error(dataset, tmp_path) -> N
     )
     assert result.exit_code != 0
     assert "t2m datagen --size 401" in result.output
+
+
+def test_threads_limit_the_trainings_torch_threads(dataset, tmp_path, monkeypatch) -> None:
+    import torch
+
+    before = torch.get_num_threads()
+    for name in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+        monkeypatch.delenv(name, raising=False)  # restored after the test
+    try:
+        trained = runner.invoke(
+            app, ["train", "--skill", "pick", "--model", "q", "--data", str(dataset), "--out", str(tmp_path), "--steps", "10", "--eval-every", "10",
+                  "--threads", "1", "--json"],
+        )
+        assert trained.exit_code == 0, trained.output
+        assert json.loads(trained.stdout)["pick"]["q"]["threads"] == 1
+        assert torch.get_num_threads() == 1
+        assert os.environ["OMP_NUM_THREADS"] == "1"  # what a library loaded later reads
+    finally:
+        torch.set_num_threads(before)
+    refused = runner.invoke(app, ["train", "--skill", "pick", "--data", str(dataset), "--out", str(tmp_path), "--threads", "0"])
+    assert refused.exit_code == 2 and "--threads" in refused.output
 
 
 def test_an_unknown_ensemble_batching_is_refused(dataset, tmp_path) -> None:
