@@ -83,7 +83,8 @@ class SkillLibrarySpec(ComponentSpec):
             (``more_train``: further dataset directories whose train splits are appended; ``init_from``
             and ``anchor`` are passed as keywords only when given).
         calibrator: ``calibrate(skill, data, checkpoint) -> dict``.
-        reporter: ``report(checkpoints, data, episodes, out, simulator) -> dict``.
+        reporter: ``report(checkpoints, data, episodes, out, simulator) -> dict``, and the keyword
+            ``ood_detectors`` when ``t2m skills report --ood-detectors`` is given.
     """
 
     kind: ClassVar[str] = "skill_library"

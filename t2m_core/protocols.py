@@ -153,7 +153,9 @@ class Skill(Protocol):
 
     ood_threshold: float
     """ε of the OOD detector: a (state, action) whose ensemble variance is ≥ ε is out of
-    distribution (docs/guide/skills.md#ood-detection)."""
+    distribution (docs/guide/skills.md#ood-detection). The variance is the Q-ensemble members' unless
+    the skill also defines ``ood_variance(states, actions, q_members) -> (N,)``, a separate detector's
+    (:func:`t2m_core.ood.ood_variance`)."""
 
     def policy(self, states: Batch) -> Batch:
         """Deterministic action ``(N, 4)`` for ``(N, 96)`` states."""
@@ -183,8 +185,8 @@ class PlanResult:
         values: ``(T,) float32`` per-step ``clip(min_i Q_i, 0, 1)``.
         ood: ``(T,) bool`` per-step out-of-distribution flags.
         p_success: product of the OOD-masked values, Π_t v_t·(1 − ood_t).
-        variances: ``(T,) float32`` population variance of the ensemble members per step (what the
-            OOD flags threshold), or ``None``.
+        variances: ``(T,) float32`` the OOD statistic per step, population variance of the ensemble
+            members or of the skill's separate detector (what the OOD flags threshold), or ``None``.
         q_members: ``(T, B) float32`` every member's success probability per step, or ``None``.
     """
 

@@ -18,6 +18,7 @@ from t2m_core.language.queries import query_next_skills
 from t2m_core.language.scene_description import relationships_of
 from t2m_core.language.scoring import dampened_softmax
 from t2m_core.language.session import valid_groundings
+from t2m_core.ood import ood_variance
 from t2m_core.protocols import PlanningContext, TaskPlan
 from t2m_planners.options import MyopicOptions
 
@@ -91,7 +92,8 @@ class MyopicPlanner:
         state = skill_state(observation, argument_first_order(objects, call.args))[None]
         action = np.asarray(skill.policy(state))
         q = np.asarray(skill.q_values(state, action))[0]
-        out_of_distribution = float(q.var()) >= float(getattr(skill, "ood_threshold", math.inf))
+        variance = float(np.asarray(ood_variance(skill, state, action, q[None]))[0])
+        out_of_distribution = variance >= float(getattr(skill, "ood_threshold", math.inf))
         return 0.0 if out_of_distribution else float(np.clip(q.min(), 0.0, 1.0))
 
 

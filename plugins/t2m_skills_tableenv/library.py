@@ -14,6 +14,7 @@ import numpy as np
 import torch
 
 from t2m_core.data.scenes import DATA_SKILLS
+from t2m_core.ood import members_variance
 from t2m_core.protocols import Batch
 from t2m_skills_tableenv.checkpoints import CheckpointError, load_q, load_weights, read_config
 from t2m_skills_tableenv.networks import Dynamics, GaussianPolicy, QEnsemble, RelationalQEnsemble
@@ -22,26 +23,33 @@ from t2m_skills_tableenv.training import WEIGHT_FILES
 
 
 class TableEnvSkill:
-    """One learned skill: policy, Q-ensemble, dynamics and OOD threshold.
+    """One learned skill: policy, Q-ensemble, dynamics and OOD detector.
 
     Attributes:
         name: the primitive (``"pick"``).
         action_dim: 4.
         ensemble_size: B, the Q-ensemble's members (8).
-        ood_threshold: ε; a (state, action) whose member variance is ≥ ε is out of distribution.
+        ood_threshold: ε; a (state, action) whose detector variance is ≥ ε is out of distribution.
         config: the checkpoint's ``config.json``.
+        detector: a separate OOD detector ensemble, or ``None``: the Q-ensemble detects (published).
+        detector_config: the ``config.json`` of the detector's checkpoint, or ``None``.
     """
 
     action_dim = 4
 
-    def __init__(self, name: str, q_ensemble: QEnsemble | RelationalQEnsemble, policy: GaussianPolicy, dynamics: Dynamics, config: dict[str, Any]) -> None:
+    def __init__(
+        self, name: str, q_ensemble: QEnsemble | RelationalQEnsemble, policy: GaussianPolicy, dynamics: Dynamics, config: dict[str, Any],
+        detector: QEnsemble | RelationalQEnsemble | None = None, detector_config: dict[str, Any] | None = None,
+    ) -> None:
         self.name = name
         self.q_ensemble = q_ensemble.eval().requires_grad_(False)
         self.policy_network = policy.eval().requires_grad_(False)
         self.dynamics = dynamics.eval().requires_grad_(False)
         self.ensemble_size = q_ensemble.members
         self.config = config
-        self.ood_threshold = float(config.get("ood", {}).get("threshold", np.inf))
+        self.detector = None if detector is None else detector.eval().requires_grad_(False)
+        self.detector_config = detector_config
+        self.ood_threshold = float((detector_config if detector is not None else config).get("ood", {}).get("threshold", np.inf))
 
     @classmethod
     def load(cls, directory: Path) -> TableEnvSkill:
@@ -79,6 +87,29 @@ class TableEnvSkill:
         """Predicted next dynamics state ``(N, 96)`` (normalised, argument-first; not yet clamped)."""
         return _same_kind(states, self.dynamics(_tensor(states), _tensor(actions)))
 
+    @torch.no_grad()
+    def ood_variance(self, states: Batch, actions: Batch, q_members: Batch) -> Batch:
+        """``(N,)`` what ``ood_threshold`` thresholds: the population variance of the detector's
+        member probabilities, or of ``q_members`` (``(N, B)``, this skill's ``q_values``) without one."""
+        if self.detector is None:
+            return members_variance(q_members)
+        return _same_kind(states, self.detector.probabilities(_tensor(states), _tensor(actions)).var(dim=1, unbiased=False))
+
+    def with_detector(self, directory: Path) -> TableEnvSkill:
+        """This skill with the Q-ensemble and calibrated threshold of the checkpoint ``directory`` as
+        its OOD detector (docs/guide/skills.md#a-separate-detector).
+
+        Raises:
+            CheckpointError: the directory's checkpoint is missing, broken, of another skill or not calibrated.
+        """
+        directory = Path(directory)
+        config = read_config(directory)
+        if config.get("skill", directory.name) != self.name:
+            raise CheckpointError(f"{directory / 'config.json'} holds a {config.get('skill')!r} skill, not {self.name!r}", f"put the {self.name} detector in {directory}")
+        if "threshold" not in config.get("ood", {}):
+            raise CheckpointError(f"{directory / 'config.json'} has no OOD threshold", f"calibrate it: t2m calibrate --skill {self.name} --data DATA --out {directory.parent}")
+        return TableEnvSkill(self.name, self.q_ensemble, self.policy_network, self.dynamics, self.config, load_q(directory), config)
+
 
 def _tensor(values: Batch) -> torch.Tensor:
     if isinstance(values, torch.Tensor):
@@ -91,7 +122,8 @@ def _same_kind(like: Batch, result: torch.Tensor) -> Batch:
 
 
 def load_library(options: TableEnvSkillsOptions | None = None) -> dict[str, TableEnvSkill]:
-    """The four skills from ``options.checkpoints`` (the shipped checkpoints by default).
+    """The four skills from ``options.checkpoints`` (the shipped checkpoints by default), each with
+    its detector from ``options.ood_detectors`` when given.
 
     Raises:
         CheckpointError: a skill's checkpoint is missing or broken.
@@ -103,4 +135,6 @@ def load_library(options: TableEnvSkillsOptions | None = None) -> dict[str, Tabl
         skill = library[name] = TableEnvSkill.load(directory)
         if skill.name != name:
             raise CheckpointError(f"{directory / 'config.json'} holds a {skill.name!r} skill, not {name!r}", f"put the {name} checkpoint in {directory}")
+        if options.ood_detectors is not None:
+            library[name] = skill.with_detector(options.ood_detectors / name)
     return library

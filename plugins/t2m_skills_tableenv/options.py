@@ -11,7 +11,7 @@ SHIPPED_CHECKPOINTS = Path(__file__).parent / "checkpoints"
 
 
 class TableEnvSkillsOptions(BaseModel):
-    """Where the library's checkpoints are."""
+    """Where the library's checkpoints, and optionally its separate OOD detectors, are."""
 
     model_config = ConfigDict(extra="forbid")
 
@@ -19,6 +19,13 @@ class TableEnvSkillsOptions(BaseModel):
         None,
         description="directory with one checkpoint directory per skill (pick/, place/, pull/, push/); "
         "null: the checkpoints shipped with t2m",
+    )
+
+    ood_detectors: Path | None = Field(
+        None,
+        description="directory with one checkpoint directory per skill whose calibrated Q-ensembles detect out-of-distribution "
+        "calls instead of the library's own (for instance ensembles trained with `t2m train --ood-exposure`); the planner's "
+        "values still come from `checkpoints`. null: each Q-ensemble's own variance (published)",
     )
 
     @property

@@ -15,7 +15,7 @@ from t2m_core.domain.primitives import get_primitive
 from t2m_core.domain.skills import SkillCall
 from t2m_core.protocols import PlanResult, Skill
 from t2m_stap.options import CEMOptions, PolicyOptions, RandomCEMOptions, SamplingOptions, ShootingOptions
-from t2m_stap.rollout import Rollouts, Step, prepare_steps, rollout, rollout_in_chunks, thresholds_of
+from t2m_stap.rollout import Rollouts, Step, prepare_steps, rollout, rollout_in_chunks, thresholds_of, with_detectors
 
 
 def _observation(observation: np.ndarray) -> torch.Tensor:
@@ -25,19 +25,29 @@ def _observation(observation: np.ndarray) -> torch.Tensor:
     return tensor
 
 
-def plan_result(rollouts: Rollouts, index: int, thresholds: torch.Tensor) -> PlanResult:
-    """The :class:`PlanResult` of trajectory ``index``: its values, OOD flags and the masked product."""
-    ood = rollouts.ood(thresholds)[index]
-    values = rollouts.values[index]
+def plan_result(rollouts: Rollouts, index: int, thresholds: torch.Tensor, steps: Sequence[Step]) -> PlanResult:
+    """The :class:`PlanResult` of trajectory ``index``: its values, OOD flags (from the skills'
+    detectors, :func:`~t2m_stap.rollout.with_detectors`) and the masked product."""
+    chosen = with_detectors(steps, rollouts, index)
+    ood = chosen.ood(thresholds)[0]
+    values = chosen.values[0]
     return PlanResult(
-        actions=rollouts.actions[index].numpy().astype(np.float32),
-        states=rollouts.states[index].numpy().astype(np.float32),
+        actions=chosen.actions[0].numpy().astype(np.float32),
+        states=chosen.states[0].numpy().astype(np.float32),
         values=values.numpy().astype(np.float32),
         ood=ood.numpy(),
         p_success=float((values * (~ood)).prod()),
-        variances=rollouts.variances[index].numpy().astype(np.float32),
-        q_members=rollouts.q_members[index].numpy().astype(np.float32),
+        variances=chosen.variances[0].numpy().astype(np.float32),
+        q_members=chosen.q_members[0].numpy().astype(np.float32),
     )
+
+
+def scores(rollouts: Rollouts, steps: Sequence[Step], thresholds: torch.Tensor, ood_penalty: bool) -> torch.Tensor:
+    """``(N,)`` what a search ranks: the product of the values, OOD-masked (with the skills'
+    detectors) when ``ood_penalty``."""
+    if not ood_penalty:
+        return rollouts.p_success()
+    return with_detectors(steps, rollouts).p_success(thresholds)
 
 
 def _empty_plan(observation: torch.Tensor) -> PlanResult:
@@ -80,7 +90,7 @@ class FeasibilityPlannerBase:
         )
         thresholds = thresholds_of(steps)
         rollouts, index = self.search(start, steps, thresholds, prefix_actions)
-        return plan_result(rollouts, index, thresholds)
+        return plan_result(rollouts, index, thresholds, steps)
 
     def search(self, start: torch.Tensor, steps: list[Step], thresholds: torch.Tensor, prefix_actions: torch.Tensor | None) -> tuple[Rollouts, int]:
         """The rollouts holding the chosen trajectory, and its index. ``prefix_actions``: ``(T0, 4)``
@@ -158,10 +168,10 @@ class CrossEntropyMethod(FeasibilityPlannerBase):
                 # the mean itself is always one candidate (unclamped without clip_grasps, as published)
                 actions[kept] = mean.clamp(low, high) if options.clip_grasps else mean
             rollouts = rollout_in_chunks(steps, start, actions, options.chunk_size)
-            scores = rollouts.p_success(thresholds if options.ood_penalty else None)
-            top = torch.topk(scores, min(options.elites, samples_per_iteration)).indices
-            if best is None or float(scores[top[0]]) > best[0]:
-                best = (float(scores[top[0]]), rollouts, int(top[0]))
+            ranked = scores(rollouts, steps, thresholds, options.ood_penalty)
+            top = torch.topk(ranked, min(options.elites, samples_per_iteration)).indices
+            if best is None or float(ranked[top[0]]) > best[0]:
+                best = (float(ranked[top[0]]), rollouts, int(top[0]))
             elites = actions[top]
             mean = elites.mean(dim=0)
             if options.sigma_mode == "adaptive":
@@ -190,10 +200,10 @@ class Shooting(FeasibilityPlannerBase):
             else:
                 actions = torch.rand((count, len(steps), 4), generator=generator) * 2 - 1
                 rollouts = rollout(steps, start, actions)
-            scores = rollouts.p_success(thresholds if options.ood_penalty else None)
-            top = int(torch.argmax(scores))
-            if best is None or float(scores[top]) > best[0]:
-                best = (float(scores[top]), rollouts, top)
+            ranked = scores(rollouts, steps, thresholds, options.ood_penalty)
+            top = int(torch.argmax(ranked))
+            if best is None or float(ranked[top]) > best[0]:
+                best = (float(ranked[top]), rollouts, top)
         assert best is not None
         return best[1], best[2]
 

@@ -10,7 +10,7 @@ samples or ensemble members.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -18,6 +18,7 @@ import torch
 
 from t2m_core.domain.observation import FEATURE_HIGH, FEATURE_LOW, STATIC_FEATURES, argument_first_order
 from t2m_core.domain.skills import SkillCall
+from t2m_core.ood import members_variance, ood_variance
 from t2m_core.protocols import Skill
 from t2m_stap.geometric_veto import Veto, geometric_veto
 
@@ -95,8 +96,9 @@ class Rollouts:
 
     Attributes:
         actions: ``(N, T, 4)``. states: ``(N, T + 1, 8, 12)`` raw observations (the first given).
-        values: ``(N, T)`` clip(min_i Q_i, 0, 1). variances: ``(N, T)`` population variance of the
-        members. q_members: ``(N, T, B)``.
+        values: ``(N, T)`` clip(min_i Q_i, 0, 1). variances: ``(N, T)`` the OOD statistic: population
+        variance of the members, or of the skills' separate detectors after :func:`with_detectors`.
+        q_members: ``(N, T, B)``.
     """
 
     actions: torch.Tensor
@@ -113,6 +115,9 @@ class Rollouts:
         """``(N,)`` product of the values, OOD-masked when ``thresholds`` are given."""
         values = self.values if thresholds is None else self.values * (~self.ood(thresholds))
         return values.prod(dim=1)
+
+
+_FIELDS = ("actions", "states", "values", "variances", "q_members")
 
 
 def _as_tensor(values: Any) -> torch.Tensor:
@@ -162,7 +167,7 @@ def rollout(
         current = decode(_as_tensor(step.skill.predict(encoded, action)), current, step)
         chosen.append(action)
         values.append(value)
-        variances.append(q.var(dim=1, unbiased=False))
+        variances.append(members_variance(q))
         members.append(q)
         states.append(current)
     return Rollouts(
@@ -170,12 +175,29 @@ def rollout(
     )
 
 
+def with_detectors(steps: Sequence[Step], rollouts: Rollouts, index: int | None = None) -> Rollouts:
+    """``rollouts`` (trajectory ``index`` alone when given, as a batch of one) whose variances are each
+    step's OOD statistic from :func:`t2m_core.ood.ood_variance`: a skill's separate detector where it
+    has one (evaluated here, on the stored states and actions), its members' variance elsewhere.
+    Planners call it on the trajectory they return, and on every sample only when the flags score
+    them, so that a detector costs the search nothing."""
+    part = rollouts if index is None else Rollouts(*(getattr(rollouts, f)[index : index + 1] for f in _FIELDS))
+    columns = []
+    for t, step in enumerate(steps):
+        if getattr(step.skill, "ood_variance", None) is None:
+            columns.append(part.variances[:, t])
+        else:
+            encoded = encode(part.states[:, t], step)
+            columns.append(_as_tensor(ood_variance(step.skill, encoded, part.actions[:, t], part.q_members[:, t])))
+    return replace(part, variances=torch.stack(columns, 1) if columns else part.variances)
+
+
 def rollout_in_chunks(steps: Sequence[Step], observation: torch.Tensor, actions: torch.Tensor, chunk_size: int) -> Rollouts:
     """:func:`rollout` of many given action sequences, ``chunk_size`` trajectories at a time."""
     parts = [rollout(steps, observation, actions[start : start + chunk_size]) for start in range(0, actions.shape[0], chunk_size)]
     if len(parts) == 1:
         return parts[0]
-    return Rollouts(*(torch.cat([getattr(p, f) for p in parts]) for f in ("actions", "states", "values", "variances", "q_members")))
+    return Rollouts(*(torch.cat([getattr(p, f) for p in parts]) for f in _FIELDS))
 
 
 def thresholds_of(steps: Sequence[Step]) -> torch.Tensor:

@@ -15,6 +15,11 @@ def report(
     episodes: Annotated[int, typer.Option("--episodes", min=0, help="Simulated policy episodes per skill (0: none).")] = 20,
     data: Annotated[Path | None, typer.Option("--data", help="Dataset directory (validation splits) for the Q, dynamics and size figures.")] = None,
     checkpoints: Annotated[Path | None, typer.Option("--checkpoints", help="Checkpoints directory (default: the shipped ones).")] = None,
+    ood_detectors: Annotated[
+        Path | None,
+        typer.Option("--ood-detectors", help="Checkpoints directory whose calibrated Q-ensembles detect out-of-distribution calls "
+                     "instead of the library's own (the OOD columns are then theirs)."),
+    ] = None,
     out: Annotated[Path, typer.Option("--out", help="Where report.json, report.md and the plots go.")] = Path("skills-report"),
     library: Annotated[str, typer.Option("--library", help="Skill library plugin.")] = "tableenv",
     sim: Annotated[str, typer.Option("--sim", help="Simulator plugin for the policy episodes.")] = "mujoco",
@@ -37,7 +42,9 @@ def report(
     console = Console(stderr=True)
     try:
         with console.status(f"measuring the {spec.name} skills ({episodes} simulated episodes each)..."):
-            result = reporter(checkpoints, data, episodes, out, simulator)
+            # libraries without separate detectors keep the four-argument reporter
+            extra = {"ood_detectors": ood_detectors} if ood_detectors is not None else {}
+            result = reporter(checkpoints, data, episodes, out, simulator, **extra)
     finally:
         if simulator is not None:
             simulator.close()

@@ -33,7 +33,8 @@ def check_skill(skill: Any, states: np.ndarray | None = None, *, seed: int = 0) 
 
     Checks: ``name`` and ``action_dim`` (4); a float ``ood_threshold``; ``policy`` gives ``(N, 4)``
     finite actions in [−1, 1]; ``q_values`` gives ``(N, B)`` probabilities in [0, 1]; ``predict``
-    gives ``(N, 96)`` finite states; every method is deterministic and gives the same rows for a
+    gives ``(N, 96)`` finite states; an ``ood_variance`` (a separate OOD detector, optional) gives
+    ``(N,)`` variances in [0, 0.25]; every method is deterministic and gives the same rows for a
     batch as for its samples one by one (to 1e-5).
 
     Raises:
@@ -56,11 +57,14 @@ def check_skill(skill: Any, states: np.ndarray | None = None, *, seed: int = 0) 
     predicted = np.asarray(skill.predict(states, random_actions))
     assert predicted.shape == (count, STATE_DIM), f"{name}: predict gave shape {predicted.shape}, expected {(count, STATE_DIM)}"
     assert np.all(np.isfinite(predicted)), f"{name}: predict gave non-finite values"
-    for method, result, args in (
-        ("policy", actions, (states,)),
-        ("q_values", q, (states, random_actions)),
-        ("predict", predicted, (states, random_actions)),
-    ):
+    checked = [("policy", actions, (states,)), ("q_values", q, (states, random_actions)), ("predict", predicted, (states, random_actions))]
+    if getattr(skill, "ood_variance", None) is not None:
+        variance = np.asarray(skill.ood_variance(states, random_actions, q))
+        assert variance.shape == (count,), f"{name}: ood_variance gave shape {variance.shape}, expected {(count,)}"
+        # a population variance of probabilities lies in [0, 1/4]
+        assert np.all((variance >= 0.0) & (variance <= 0.25 + 1e-6)), f"{name}: ood_variance must be a variance of probabilities, in [0, 0.25]"
+        checked.append(("ood_variance", variance, (states, random_actions, q)))
+    for method, result, args in checked:
         again = np.asarray(getattr(skill, method)(*args))
         assert np.array_equal(again, result), f"{name}: {method} is not deterministic"
         singles = np.concatenate([np.asarray(getattr(skill, method)(*(a[i : i + 1] for a in args))) for i in range(count)])

@@ -31,12 +31,12 @@ class ConstantSkill:
         return np.full((len(states), 8), self.value, np.float32)
 
 
-def episode(model: RuleModel, feedback: bool, values: dict[str, float]):
+def episode(model: RuleModel, feedback: bool, values: dict[str, float], skill_type: type = ConstantSkill):
     task = load_task("task0")
     simulator = ScriptedSimulator(success=True)
     reset = simulator.reset(task, seed=0)
     session = LanguageSession(model, describe_state(task.instruction, reset.state, task.objects), constrained=False, grounded=False)
-    skills = {name: ConstantSkill(name, value) for name, value in values.items()}
+    skills = {name: skill_type(name, value) for name, value in values.items()}
     events: list = []
     context = PlanningContext(task.instruction, parse_goal("[['on(yellow_box, rack)']]"), session, skills, None, task.objects,
                               reset.observation, simulator=simulator, on_event=events.append)
@@ -64,6 +64,21 @@ def test_an_infeasible_skill_loses_to_stop_and_ood_counts_as_infeasible() -> Non
     model = RuleModel(next_skills=["['pick(yellow_box)']"], scores={"pick(yellow_box)": -1.0, "stop()": -1.2})
     plan, _, simulator, _ = episode(model, False, {"pick": 0.05})
     assert simulator.executions == 0  # 0.05 x usefulness < 0.5 x usefulness of stop()
+
+
+class DetectedSkill(ConstantSkill):
+    """Its members agree (variance 0), but its separate OOD detector flags every pair."""
+
+    def ood_variance(self, states, actions, q_members):
+        return np.full(len(states), 0.25, np.float32)
+
+
+def test_a_separate_detector_masks_the_current_state_value() -> None:
+    model = RuleModel(next_skills=["['pick(yellow_box)']"], scores={"pick(yellow_box)": -1.0, "stop()": -1.2})
+    _, _, simulator, events = episode(model, False, {"pick": 0.9}, DetectedSkill)
+    assert simulator.executions == 0  # valued 0.9 by its members, 0 once flagged: stop() wins
+    picked = [c for c in events[0]["candidates"] if c["skill"] == "pick(yellow_box)"][0]
+    assert picked["value"] == 0.0
 
 
 def test_innermono_shows_the_observed_relationships_after_each_execution() -> None:

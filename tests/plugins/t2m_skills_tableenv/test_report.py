@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -41,3 +43,24 @@ def test_the_markdown_report_lists_outcomes_under_the_skill_table() -> None:
     assert "| pick | 10 / 4 / 2 | 50.0% | 100.0% | 75.0% |" in text
     assert "| pick | collision | 2 | 0.20 | 0.0% |" in text
     assert "| pick | disturbed | 1 | 0.80 | 100.0% |" in text
+
+
+def test_the_report_reads_the_ood_figures_of_the_separate_detectors(tmp_path) -> None:
+    from typer.testing import CliRunner
+
+    from t2m_core.cli.main import app
+    from t2m_skills_tableenv.checkpoints import update_config
+    from tests.plugins.t2m_skills_tableenv.test_skill_checkpoints import write_checkpoint
+
+    for library, threshold in (("own", 0.05), ("detectors", 0.2)):
+        for name in ("pick", "place", "pull", "push"):
+            write_checkpoint(tmp_path / library / name, threshold=threshold)
+            update_config(tmp_path / library / name, skill=name, ood={"threshold": threshold, "detection_rate": 4 * threshold})
+    runner = CliRunner()
+    plain = runner.invoke(app, ["skills", "report", "--episodes", "0", "--checkpoints", str(tmp_path / "own"), "--out", str(tmp_path / "a"), "--json"])
+    detected = runner.invoke(app, ["skills", "report", "--episodes", "0", "--checkpoints", str(tmp_path / "own"), "--ood-detectors",
+                                   str(tmp_path / "detectors"), "--out", str(tmp_path / "b"), "--json"])
+    assert plain.exit_code == 0 and detected.exit_code == 0, detected.output
+    assert "| 20.0% |" in (tmp_path / "a" / "report.md").read_text() and "| 80.0% |" in (tmp_path / "b" / "report.md").read_text()
+    report = json.loads((tmp_path / "b" / "report.json").read_text())
+    assert report["push"]["ood"]["threshold"] == 0.2 and report["push"]["ood"]["detector"] == str(tmp_path / "detectors" / "push")

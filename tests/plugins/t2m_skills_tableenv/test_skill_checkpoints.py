@@ -81,3 +81,40 @@ def test_a_library_refuses_a_checkpoint_of_another_skill_in_a_skills_place(tmp_p
         write_checkpoint(tmp_path / name)  # every one says skill "pick"
     with pytest.raises(CheckpointError, match="holds a 'pick' skill, not 'place'"):
         load_library(TableEnvSkillsOptions(checkpoints=tmp_path))
+
+
+def test_a_separate_detector_judges_ood_with_its_own_ensemble_and_threshold(tmp_path) -> None:
+    from t2m_core.ood import ood_variance
+
+    own = write_checkpoint(tmp_path / "own" / "pick", threshold=0.05)
+    detector = write_checkpoint(tmp_path / "detector" / "pick", threshold=0.2)["q"]
+    skill = TableEnvSkill.load(tmp_path / "own" / "pick")
+    detected = skill.with_detector(tmp_path / "detector" / "pick")
+    states, actions = torch.rand(6, 96) - 0.5, torch.rand(6, 4) * 2 - 1
+    q = detected.q_values(states, actions)
+    torch.testing.assert_close(q, own["q"].probabilities(states, actions), rtol=0, atol=0)  # values stay the library's
+    expected = np.var(detector.probabilities(states, actions).detach().numpy(), axis=1)
+    assert not np.allclose(expected, np.var(q.numpy(), axis=1))  # another ensemble than the values'
+    np.testing.assert_allclose(ood_variance(detected, states, actions, q).numpy(), expected, rtol=1e-5, atol=1e-8)
+    assert detected.ood_threshold == 0.2 and skill.ood_threshold == 0.05
+    # without a detector the statistic is the members' own variance, also for NumPy callers
+    members = q.numpy()
+    np.testing.assert_allclose(ood_variance(skill, states.numpy(), actions.numpy(), members), np.var(members, axis=1), rtol=1e-6)
+
+
+def test_a_detector_must_be_the_same_skill_and_calibrated(tmp_path) -> None:
+    write_checkpoint(tmp_path / "own")
+    skill = TableEnvSkill.load(tmp_path / "own")
+    write_checkpoint(tmp_path / "uncalibrated")
+    config = read_config(tmp_path / "uncalibrated")
+    del config["ood"]
+    (tmp_path / "uncalibrated" / "config.json").write_text(json.dumps(config))
+    with pytest.raises(CheckpointError, match="no OOD threshold") as refused:
+        skill.with_detector(tmp_path / "uncalibrated")
+    assert "t2m calibrate --skill pick" in refused.value.hint
+    write_checkpoint(tmp_path / "other")
+    update_config(tmp_path / "other", skill="push")
+    with pytest.raises(CheckpointError, match="holds a 'push' skill, not 'pick'"):
+        skill.with_detector(tmp_path / "other")
+    with pytest.raises(CheckpointError, match="config.json"):
+        skill.with_detector(tmp_path / "missing")

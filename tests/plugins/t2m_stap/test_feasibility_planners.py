@@ -80,6 +80,33 @@ def test_an_ood_step_zeroes_the_plan_but_not_the_optimisation_by_default() -> No
     assert result.values[0] > 0.9  # the flag was applied after optimising, not inside it
 
 
+class DetectedSkill(ToySkill):
+    """A toy skill with a separate OOD detector: actions whose second component is positive are out of
+    distribution (variance 0.25), the others in (0); it counts the pairs it was asked about."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.detected_pairs = 0
+
+    def ood_variance(self, states, actions, q_members):
+        self.detected_pairs += len(actions)
+        return (actions[:, 1] > 0).float() * 0.25
+
+
+def test_a_separate_detector_flags_the_returned_plan_and_costs_the_search_nothing() -> None:
+    # the best action (0.6, 0.4, ...) is flagged by the detector only: the toy members barely disagree there
+    skill = DetectedSkill("pick", target=(0.6, 0.4, 0.2, 0.0), ood_threshold=0.1)
+    result = CrossEntropyMethod(CEMOptions(population=500, veto=[])).plan(OBSERVATION, [PICK], {"pick": skill}, OBJECTS)
+    assert result.actions[0, 1] > 0 and result.values[0] > 0.9
+    assert result.ood.all() and result.p_success == 0.0 and result.variances[0] == pytest.approx(0.25)
+    assert skill.detected_pairs == 1  # the returned trajectory alone
+    # scored by the masked product, the search avoids what the detector flags
+    penalised = DetectedSkill("pick", target=(0.6, 0.4, 0.2, 0.0), ood_threshold=0.1)
+    avoided = CrossEntropyMethod(CEMOptions(population=500, veto=[], ood_penalty=True)).plan(OBSERVATION, [PICK], {"pick": penalised}, OBJECTS)
+    assert avoided.actions[0, 1] <= 0 and not avoided.ood.any() and avoided.p_success > 0.1
+    assert penalised.detected_pairs > 500
+
+
 def test_the_population_can_scale_with_the_horizon() -> None:
     assert CEMOptions(population=100).samples(3) == 100
     assert CEMOptions(population=100, scale_population_by_horizon=True).samples(3) == 1200
