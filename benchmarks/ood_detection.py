@@ -1,9 +1,10 @@
 """How a skill library's OOD detector does on invalid pairs it was not calibrated or exposed on, and what
 it costs on valid ones (docs/guide/skills.md#ood-exposure).
 
-    python benchmarks/ood_detection.py --checkpoints DIR [--checkpoints DIR ...] --data DATA [--json OUT]
+    python benchmarks/ood_detection.py --checkpoints DIR [--checkpoints DIR ...] --data DATA [--ood-detectors DIR] [--json OUT]
 
-For every skill of every library, with the threshold stored in its checkpoint:
+For every skill of every library, with the threshold stored in its checkpoint (with
+``--ood-detectors``, the separate detectors' variance and thresholds; docs/guide/skills.md#a-separate-detector):
 
 - detection: the share of ``DATA/<skill>/invalid`` pairs (uniform actions) the variance flags;
 - detection with the policy's action: the same invalid states, each with the action the skill's
@@ -28,8 +29,8 @@ SKILLS = ("pick", "place", "pull", "push")
 
 
 @torch.no_grad()
-def measure(checkpoints: Path, data: Path) -> dict[str, dict[str, float]]:
-    """skill -> the figures above, for the library in ``checkpoints``."""
+def measure(checkpoints: Path, data: Path, ood_detectors: Path | None = None) -> dict[str, dict[str, float]]:
+    """skill -> the figures above, for the library in ``checkpoints`` (its detectors in ``ood_detectors``)."""
     from dataclasses import replace
 
     from t2m_skills_tableenv.calibration import ensemble_statistics
@@ -38,19 +39,20 @@ def measure(checkpoints: Path, data: Path) -> dict[str, dict[str, float]]:
     from t2m_skills_tableenv.options import TableEnvSkillsOptions
     from t2m_skills_tableenv.training import q_metrics
 
-    library = load_library(TableEnvSkillsOptions(checkpoints=checkpoints))
+    library = load_library(TableEnvSkillsOptions(checkpoints=checkpoints, ood_detectors=ood_detectors))
     results = {}
     for name in SKILLS:
         skill = library[name]
+        detector = skill.detector if skill.detector is not None else skill.q_ensemble
         invalid = SkillTensors.load(data / name / "invalid")
         validation = SkillTensors.load(data / name / "validation")
         row = {"threshold": skill.ood_threshold}
         for label, pairs in (("uniform", invalid), ("policy", replace(invalid, actions=skill.policy(invalid.states())))):
-            _, variance, minimum = ensemble_statistics(skill.q_ensemble, pairs)
-            flagged = variance >= skill.ood_threshold
+            minimum = ensemble_statistics(skill.q_ensemble, pairs)[2]
+            flagged = ensemble_statistics(detector, pairs)[1] >= skill.ood_threshold
             row[f"detection_{label}"] = float(flagged.mean())
             row[f"rejected_{label}"] = float(((minimum < 0.5) | flagged).mean())
-        row["false_positives"] = float((ensemble_statistics(skill.q_ensemble, validation)[1] >= skill.ood_threshold).mean())
+        row["false_positives"] = float((ensemble_statistics(detector, validation)[1] >= skill.ood_threshold).mean())
         row.update({f"validation_{k}": v for k, v in q_metrics(skill.q_ensemble, validation).items()})
         row["invalid_pairs"], row["validation_pairs"] = len(invalid), len(validation)
         results[name] = row
@@ -61,13 +63,14 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--checkpoints", type=Path, action="append", required=True, help="a skill library's checkpoints directory (repeatable)")
     parser.add_argument("--data", type=Path, required=True, help="dataset directory with each skill's validation and invalid splits")
+    parser.add_argument("--ood-detectors", type=Path, help="separate detectors' checkpoints directory, for every library")
     parser.add_argument("--json", type=Path, help="write the figures here")
     args = parser.parse_args(argv)
     torch.set_num_threads(1)
     from t2m_core.errors import T2MError
 
     try:
-        results = {str(directory): measure(directory, args.data) for directory in args.checkpoints}
+        results = {str(directory): measure(directory, args.data, args.ood_detectors) for directory in args.checkpoints}
     except (T2MError, OSError, ValueError) as error:  # a missing split or checkpoint: the library's own message
         print(f"error: {error}", file=sys.stderr)
         return 1
