@@ -1,7 +1,7 @@
 """How a skill library's OOD detector does on invalid pairs it was not calibrated or exposed on, and what
 it costs on valid ones (docs/guide/skills.md#ood-exposure).
 
-    python benchmarks/ood_detection.py --checkpoints DIR [--checkpoints DIR ...] --data DATA [--ood-detectors DIR] [--json OUT]
+    python benchmarks/ood_detection.py --checkpoints DIR [--checkpoints DIR ...] --data DATA [--ood-detectors DIR | --published-ood] [--json OUT]
 
 For every skill of every library, with the threshold stored in its checkpoint (with
 ``--ood-detectors``, the separate detectors' variance and thresholds; docs/guide/skills.md#a-separate-detector):
@@ -29,8 +29,9 @@ SKILLS = ("pick", "place", "pull", "push")
 
 
 @torch.no_grad()
-def measure(checkpoints: Path, data: Path, ood_detectors: Path | None = None) -> dict[str, dict[str, float]]:
-    """skill -> the figures above, for the library in ``checkpoints`` (its detectors in ``ood_detectors``)."""
+def measure(checkpoints: Path, data: Path, ood_detectors: Path | None = None, published_ood: bool = False) -> dict[str, dict[str, float]]:
+    """skill -> the figures above, for the library in ``checkpoints`` (its detectors in ``ood_detectors``,
+    else those it holds; its Q-ensembles with ``published_ood``)."""
     from dataclasses import replace
 
     from t2m_skills_tableenv.calibration import ensemble_statistics
@@ -39,7 +40,7 @@ def measure(checkpoints: Path, data: Path, ood_detectors: Path | None = None) ->
     from t2m_skills_tableenv.options import TableEnvSkillsOptions
     from t2m_skills_tableenv.training import q_metrics
 
-    library = load_library(TableEnvSkillsOptions(checkpoints=checkpoints, ood_detectors=ood_detectors))
+    library = load_library(TableEnvSkillsOptions(checkpoints=checkpoints, ood_detectors=ood_detectors, published_ood=published_ood))
     results = {}
     for name in SKILLS:
         skill = library[name]
@@ -64,13 +65,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--checkpoints", type=Path, action="append", required=True, help="a skill library's checkpoints directory (repeatable)")
     parser.add_argument("--data", type=Path, required=True, help="dataset directory with each skill's validation and invalid splits")
     parser.add_argument("--ood-detectors", type=Path, help="separate detectors' checkpoints directory, for every library")
+    parser.add_argument("--published-ood", action="store_true", help="each Q-ensemble's own variance, ignoring any detectors")
     parser.add_argument("--json", type=Path, help="write the figures here")
     args = parser.parse_args(argv)
     torch.set_num_threads(1)
     from t2m_core.errors import T2MError
 
     try:
-        results = {str(directory): measure(directory, args.data, args.ood_detectors) for directory in args.checkpoints}
+        results = {str(directory): measure(directory, args.data, args.ood_detectors, args.published_ood) for directory in args.checkpoints}
     except (T2MError, OSError, ValueError) as error:  # a missing split or checkpoint: the library's own message
         print(f"error: {error}", file=sys.stderr)
         return 1

@@ -83,8 +83,8 @@ class SkillLibrarySpec(ComponentSpec):
             (``more_train``: further dataset directories whose train splits are appended; ``init_from``
             and ``anchor`` are passed as keywords only when given).
         calibrator: ``calibrate(skill, data, checkpoint) -> dict``.
-        reporter: ``report(checkpoints, data, episodes, out, simulator) -> dict``, and the keyword
-            ``ood_detectors`` when ``t2m skills report --ood-detectors`` is given.
+        reporter: ``report(checkpoints, data, episodes, out, simulator) -> dict``, and the keywords
+            ``ood_detectors`` and ``published_ood`` when ``t2m skills report`` is given them.
     """
 
     kind: ClassVar[str] = "skill_library"

@@ -33,6 +33,7 @@ class TableEnvSkill:
         config: the checkpoint's ``config.json``.
         detector: a separate OOD detector ensemble, or ``None``: the Q-ensemble detects (published).
         detector_config: the ``config.json`` of the detector's checkpoint, or ``None``.
+        detector_directory: where the detector was loaded from, or ``None``.
     """
 
     action_dim = 4
@@ -40,6 +41,7 @@ class TableEnvSkill:
     def __init__(
         self, name: str, q_ensemble: QEnsemble | RelationalQEnsemble, policy: GaussianPolicy, dynamics: Dynamics, config: dict[str, Any],
         detector: QEnsemble | RelationalQEnsemble | None = None, detector_config: dict[str, Any] | None = None,
+        detector_directory: Path | None = None,
     ) -> None:
         self.name = name
         self.q_ensemble = q_ensemble.eval().requires_grad_(False)
@@ -49,6 +51,7 @@ class TableEnvSkill:
         self.config = config
         self.detector = None if detector is None else detector.eval().requires_grad_(False)
         self.detector_config = detector_config
+        self.detector_directory = detector_directory
         self.ood_threshold = float((detector_config if detector is not None else config).get("ood", {}).get("threshold", np.inf))
 
     @classmethod
@@ -108,7 +111,7 @@ class TableEnvSkill:
             raise CheckpointError(f"{directory / 'config.json'} holds a {config.get('skill')!r} skill, not {self.name!r}", f"put the {self.name} detector in {directory}")
         if "threshold" not in config.get("ood", {}):
             raise CheckpointError(f"{directory / 'config.json'} has no OOD threshold", f"calibrate it: t2m calibrate --skill {self.name} --data DATA --out {directory.parent}")
-        return TableEnvSkill(self.name, self.q_ensemble, self.policy_network, self.dynamics, self.config, load_q(directory), config)
+        return TableEnvSkill(self.name, self.q_ensemble, self.policy_network, self.dynamics, self.config, load_q(directory), config, directory)
 
 
 def _tensor(values: Batch) -> torch.Tensor:
@@ -123,7 +126,8 @@ def _same_kind(like: Batch, result: torch.Tensor) -> Batch:
 
 def load_library(options: TableEnvSkillsOptions | None = None) -> dict[str, TableEnvSkill]:
     """The four skills from ``options.checkpoints`` (the shipped checkpoints by default), each with
-    its detector from ``options.ood_detectors`` when given.
+    its separate OOD detector when ``options`` name or the checkpoints directory holds one
+    (:attr:`~t2m_skills_tableenv.options.TableEnvSkillsOptions.detector_directory`).
 
     Raises:
         CheckpointError: a skill's checkpoint is missing or broken.
@@ -135,6 +139,6 @@ def load_library(options: TableEnvSkillsOptions | None = None) -> dict[str, Tabl
         skill = library[name] = TableEnvSkill.load(directory)
         if skill.name != name:
             raise CheckpointError(f"{directory / 'config.json'} holds a {skill.name!r} skill, not {name!r}", f"put the {name} checkpoint in {directory}")
-        if options.ood_detectors is not None:
-            library[name] = skill.with_detector(options.ood_detectors / name)
+        if options.detector_directory is not None:
+            library[name] = skill.with_detector(options.detector_directory / name)
     return library

@@ -95,21 +95,21 @@ def dynamics_errors(dynamics: Dynamics, data: SkillTensors, row_orders: np.ndarr
 
 
 def report_library(
-    checkpoints: Path, data: Path | None, episodes: int, out: Path, simulator: Any | None, ood_detectors: Path | None = None
+    checkpoints: Path, data: Path | None, episodes: int, out: Path, simulator: Any | None, ood_detectors: Path | None = None,
+    published_ood: bool = False,
 ) -> dict[str, Any]:
     """Measure every skill of the library in ``checkpoints`` (with the separate OOD detectors in
-    ``ood_detectors`` when given); write ``report.json``, ``report.md`` and ``reliability.png`` into
+    ``ood_detectors``, else those the directory holds, unless ``published_ood``); write ``report.json``, ``report.md`` and ``reliability.png`` into
     ``out``; return the report."""
     from t2m_core.data.generate import MANIFEST_NAME, load_split
 
     report: dict[str, Any] = {}
-    library = load_library(TableEnvSkillsOptions(checkpoints=Path(checkpoints), ood_detectors=ood_detectors))
+    library = load_library(TableEnvSkillsOptions(checkpoints=Path(checkpoints), ood_detectors=ood_detectors, published_ood=published_ood))
     for name in DATA_SKILLS:
         skill = library[name]
         calibration = (skill.detector_config if skill.detector_config is not None else skill.config).get("ood", {})
         entry: dict[str, Any] = {"ood": {k: calibration.get(k) for k in ("threshold", "detection_rate", "false_positive_rate", "invalid_rejected_rate")}}
-        if ood_detectors is not None:
-            entry["ood"]["detector"] = str(Path(ood_detectors) / name)
+        entry["ood"]["detector"] = None if skill.detector_directory is None else str(skill.detector_directory)
         if data is not None and (Path(data) / name / "validation" / MANIFEST_NAME).exists():
             import json
 

@@ -18,8 +18,11 @@ def report(
     ood_detectors: Annotated[
         Path | None,
         typer.Option("--ood-detectors", help="Checkpoints directory whose calibrated Q-ensembles detect out-of-distribution calls "
-                     "instead of the library's own (the OOD columns are then theirs)."),
+                     "instead of the library's own (default: the checkpoints directory's ood_detectors/ when it has one)."),
     ] = None,
+    published_ood: Annotated[
+        bool, typer.Option("--published-ood", help="Report each Q-ensemble's own OOD detection (the published detector), ignoring detectors.")
+    ] = False,
     out: Annotated[Path, typer.Option("--out", help="Where report.json, report.md and the plots go.")] = Path("skills-report"),
     library: Annotated[str, typer.Option("--library", help="Skill library plugin.")] = "tableenv",
     sim: Annotated[str, typer.Option("--sim", help="Simulator plugin for the policy episodes.")] = "mujoco",
@@ -43,7 +46,7 @@ def report(
     try:
         with console.status(f"measuring the {spec.name} skills ({episodes} simulated episodes each)..."):
             # libraries without separate detectors keep the four-argument reporter
-            extra = {"ood_detectors": ood_detectors} if ood_detectors is not None else {}
+            extra = {k: v for k, v in (("ood_detectors", ood_detectors), ("published_ood", published_ood)) if v}
             result = reporter(checkpoints, data, episodes, out, simulator, **extra)
     finally:
         if simulator is not None:

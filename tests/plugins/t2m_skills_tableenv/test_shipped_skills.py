@@ -11,7 +11,7 @@ import pytest
 from t2m_core.data.scenes import DATA_SKILLS
 from t2m_core.testing import check_feasibility_planner, check_skill
 from t2m_skills_tableenv.library import load_library
-from t2m_skills_tableenv.options import SHIPPED_CHECKPOINTS
+from t2m_skills_tableenv.options import SHIPPED_CHECKPOINTS, TableEnvSkillsOptions
 
 
 @pytest.fixture(scope="module")
@@ -88,3 +88,25 @@ def test_the_report_measures_the_shipped_library_in_simulation(tmp_path) -> None
         assert policy["episodes"] == 2 and sum(policy["outcomes"].values()) >= 2 and 0 <= policy["success_rate"] <= 1
         assert entry["ood"]["threshold"] > 0
     assert "| pick |" in (tmp_path / "report.md").read_text()
+
+
+@pytest.mark.parametrize("name", DATA_SKILLS)
+def test_the_shipped_detectors_flag_invalid_calls_they_never_saw(library, name: str, tmp_path) -> None:
+    """Invalid pairs (symbolically invalid calls, uniform actions) of a seed that neither the
+    calibration (0) nor the OOD exposure (1) used: the published floor is 90 % detected."""
+    from t2m_core.data.generate import DatasetJob, generate_dataset
+    from t2m_core.ood import ood_variance
+    from t2m_skills_tableenv.dataset import SkillTensors
+
+    generate_dataset(DatasetJob(tmp_path, name, "invalid", 500, 500, base_seed=11))
+    pairs = SkillTensors.load(tmp_path / name / "invalid")
+    skill = library[name]
+    states = pairs.states()
+    q = skill.q_values(states, pairs.actions)
+    flagged = np.asarray(ood_variance(skill, states, pairs.actions, q)) >= skill.ood_threshold
+    assert len(pairs) == 500 and skill.detector is not None
+    assert flagged.mean() >= 0.9
+    # the published detector, each Q-ensemble's own spread and threshold, finds few of them
+    published = load_library(TableEnvSkillsOptions(published_ood=True))[name]
+    assert published.detector is None
+    assert (np.asarray(ood_variance(published, states, pairs.actions, q)) >= published.ood_threshold).mean() < 0.5

@@ -118,3 +118,26 @@ def test_a_detector_must_be_the_same_skill_and_calibrated(tmp_path) -> None:
         skill.with_detector(tmp_path / "other")
     with pytest.raises(CheckpointError, match="config.json"):
         skill.with_detector(tmp_path / "missing")
+
+
+def test_a_library_loads_the_detectors_it_holds_unless_told_otherwise(tmp_path) -> None:
+    from pydantic import ValidationError
+
+    from t2m_skills_tableenv.library import load_library
+    from t2m_skills_tableenv.options import TableEnvSkillsOptions
+
+    for name in ("pick", "place", "pull", "push"):
+        write_checkpoint(tmp_path / "library" / name, threshold=0.05)
+        update_config(tmp_path / "library" / name, skill=name)
+    plain = load_library(TableEnvSkillsOptions(checkpoints=tmp_path / "library"))
+    assert all(skill.detector is None and skill.ood_threshold == 0.05 for skill in plain.values())
+    for name in ("pick", "place", "pull", "push"):
+        write_checkpoint(tmp_path / "library" / "ood_detectors" / name, threshold=0.2)
+        update_config(tmp_path / "library" / "ood_detectors" / name, skill=name)
+    held = load_library(TableEnvSkillsOptions(checkpoints=tmp_path / "library"))
+    assert all(skill.detector is not None and skill.ood_threshold == 0.2 for skill in held.values())
+    assert held["push"].detector_directory == tmp_path / "library" / "ood_detectors" / "push"
+    published = load_library(TableEnvSkillsOptions(checkpoints=tmp_path / "library", published_ood=True))
+    assert all(skill.detector is None and skill.ood_threshold == 0.05 for skill in published.values())
+    with pytest.raises(ValidationError, match="exclude each other"):
+        TableEnvSkillsOptions(published_ood=True, ood_detectors=tmp_path)
