@@ -99,8 +99,8 @@ def report_library(
     published_ood: bool = False,
 ) -> dict[str, Any]:
     """Measure every skill of the library in ``checkpoints`` (with the separate OOD detectors in
-    ``ood_detectors``, else those the directory holds, unless ``published_ood``); write ``report.json``, ``report.md`` and ``reliability.png`` into
-    ``out``; return the report."""
+    ``ood_detectors``, else those the directory holds, unless ``published_ood``); write
+    ``report.json``, ``report.md`` and ``reliability.png`` into ``out``; return the report."""
     from t2m_core.data.generate import MANIFEST_NAME, load_split
 
     report: dict[str, Any] = {}
