@@ -35,6 +35,8 @@ def report(
     from t2m_core.cli.train_cmd import library_entry
     from t2m_core.registry import get_registry
 
+    if published_ood and ood_detectors is not None:
+        raise T2MError("--published-ood and --ood-detectors exclude each other", "pass one of them: the Q-ensembles detect, or the detectors do")
     reporter = library_entry(library, "reporter")
     spec = get_registry().get("skill_library", library)
     if checkpoints is None:  # the library's own default location

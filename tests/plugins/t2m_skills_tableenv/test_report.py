@@ -64,3 +64,6 @@ def test_the_report_reads_the_ood_figures_of_the_separate_detectors(tmp_path) ->
     assert "| 20.0% |" in (tmp_path / "a" / "report.md").read_text() and "| 80.0% |" in (tmp_path / "b" / "report.md").read_text()
     report = json.loads((tmp_path / "b" / "report.json").read_text())
     assert report["push"]["ood"]["threshold"] == 0.2 and report["push"]["ood"]["detector"] == str(tmp_path / "detectors" / "push")
+    both = runner.invoke(app, ["skills", "report", "--episodes", "0", "--checkpoints", str(tmp_path / "own"), "--published-ood",
+                               "--ood-detectors", str(tmp_path / "detectors"), "--out", str(tmp_path / "c")])
+    assert both.exit_code != 0 and "exclude each other" in both.output and not (tmp_path / "c").exists()
