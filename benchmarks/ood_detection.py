@@ -44,7 +44,7 @@ def measure(checkpoints: Path, data: Path, ood_detectors: Path | None = None, pu
     results = {}
     for name in SKILLS:
         skill = library[name]
-        detector = skill.detector if skill.detector is not None else skill.q_ensemble
+        detector = skill.ood_ensemble
         invalid = SkillTensors.load(data / name / "invalid")
         validation = SkillTensors.load(data / name / "validation")
         row = {"threshold": skill.ood_threshold}

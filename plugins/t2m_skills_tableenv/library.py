@@ -52,7 +52,17 @@ class TableEnvSkill:
         self.detector = None if detector is None else detector.eval().requires_grad_(False)
         self.detector_config = detector_config
         self.detector_directory = detector_directory
-        self.ood_threshold = float((detector_config if detector is not None else config).get("ood", {}).get("threshold", np.inf))
+        self.ood_threshold = float(self.ood_calibration.get("threshold", np.inf))
+
+    @property
+    def ood_calibration(self) -> dict[str, Any]:
+        """The ``ood`` section (threshold, rates) of whichever checkpoint detects: the detector's, else this skill's."""
+        return (self.detector_config if self.detector is not None else self.config).get("ood", {})
+
+    @property
+    def ood_ensemble(self) -> QEnsemble | RelationalQEnsemble:
+        """The ensemble whose member variance is thresholded: the detector, else the Q-ensemble."""
+        return self.detector if self.detector is not None else self.q_ensemble
 
     @classmethod
     def load(cls, directory: Path) -> TableEnvSkill:
@@ -96,7 +106,7 @@ class TableEnvSkill:
         member probabilities, or of ``q_members`` (``(N, B)``, this skill's ``q_values``) without one."""
         if self.detector is None:
             return members_variance(q_members)
-        return _same_kind(states, self.detector.probabilities(_tensor(states), _tensor(actions)).var(dim=1, unbiased=False))
+        return _same_kind(states, members_variance(self.detector.probabilities(_tensor(states), _tensor(actions))))
 
     def with_detector(self, directory: Path) -> TableEnvSkill:
         """This skill with the Q-ensemble and calibrated threshold of the checkpoint ``directory`` as

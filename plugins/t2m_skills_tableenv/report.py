@@ -107,8 +107,7 @@ def report_library(
     library = load_library(TableEnvSkillsOptions(checkpoints=Path(checkpoints), ood_detectors=ood_detectors, published_ood=published_ood))
     for name in DATA_SKILLS:
         skill = library[name]
-        calibration = (skill.detector_config if skill.detector_config is not None else skill.config).get("ood", {})
-        entry: dict[str, Any] = {"ood": {k: calibration.get(k) for k in ("threshold", "detection_rate", "false_positive_rate", "invalid_rejected_rate")}}
+        entry: dict[str, Any] = {"ood": {k: skill.ood_calibration.get(k) for k in ("threshold", "detection_rate", "false_positive_rate", "invalid_rejected_rate")}}
         entry["ood"]["detector"] = None if skill.detector_directory is None else str(skill.detector_directory)
         if data is not None and (Path(data) / name / "validation" / MANIFEST_NAME).exists():
             import json
