@@ -56,10 +56,9 @@ def main() -> None:
     from t2m_core.atomic_files import write_json_atomic
     from t2m_core.data.generate import load_split
     from t2m_skills_tableenv.dataset import SkillTensors
-    from t2m_skills_tableenv.checkpoints import load_q, load_weights
-    from t2m_skills_tableenv.networks import Dynamics
+    from t2m_skills_tableenv.checkpoints import load_dynamics, load_q
     from t2m_skills_tableenv.report import dynamics_errors, errors_by_outcome
-    from t2m_skills_tableenv.training import WEIGHT_FILES, q_metrics, train_skill
+    from t2m_skills_tableenv.training import q_metrics, train_skill
 
     models = tuple(args.models.split(","))
     unknown = set(models) - {"q", "dynamics"}
@@ -93,7 +92,7 @@ def main() -> None:
                 q_min = ensemble.probabilities(validation.states(), validation.actions).min(dim=1).values.numpy()
             point["q"]["by_outcome"] = errors_by_outcome(q_min, transitions.failure_names())
         if "dynamics" in models:
-            dynamics = load_weights(checkpoint / WEIGHT_FILES["dynamics"], Dynamics()).eval()
+            dynamics = load_dynamics(checkpoint).eval()
             point["dynamics"] = dynamics_errors(
                 dynamics, validation.successes(), transitions.row_order[keep], transitions.shuffle_range[keep],
                 transitions.observation[keep], transitions.next_observation[keep],

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from collections.abc import Callable
 from typing import Any
 
 import torch
@@ -70,13 +71,13 @@ def read_config(directory: Path) -> dict[str, Any]:
     return config
 
 
-def q_architecture_of(directory: Path) -> dict[str, Any]:
-    """``models.q.architecture`` of the skill checkpoint ``directory``'s config (``{}``: none recorded).
+def architecture_of(directory: Path, model: str) -> dict[str, Any]:
+    """``models.<model>.architecture`` of the skill checkpoint ``directory``'s config (``{}``: none recorded).
 
     Raises:
         CheckpointError: a missing or broken config.
     """
-    return read_config(directory).get("models", {}).get("q", {}).get("architecture", {})
+    return read_config(directory).get("models", {}).get(model, {}).get("architecture", {})
 
 
 def load_q(directory: Path) -> nn.Module:
@@ -88,13 +89,27 @@ def load_q(directory: Path) -> nn.Module:
     """
     from t2m_skills_tableenv.networks import build_q
 
-    directory = Path(directory)
-    architecture = q_architecture_of(directory)
+    return _load_model(Path(directory), "q", "Q-ensemble", build_q, "q_ensemble.safetensors")
+
+
+def load_dynamics(directory: Path) -> nn.Module:
+    """The dynamics model of the skill checkpoint ``directory``, built as its ``config.json`` says
+    (the MLP when the config names no architecture).
+
+    Raises:
+        CheckpointError: a missing or broken config or weight file, or an unknown architecture.
+    """
+    from t2m_skills_tableenv.networks import build_dynamics
+
+    return _load_model(Path(directory), "dynamics", "dynamics model", build_dynamics, "dynamics.safetensors")
+
+
+def _load_model(directory: Path, model: str, description: str, build: Callable[[dict[str, Any]], nn.Module], file: str) -> nn.Module:
     try:
-        network = build_q(architecture)
+        network = build(architecture_of(directory, model))
     except (ValueError, KeyError, TypeError) as error:
-        raise CheckpointError(f"{directory / CONFIG_NAME} describes a Q-ensemble this t2m cannot build: {error}", "retrain it with `t2m train` or upgrade t2m") from None
-    return load_weights(directory / "q_ensemble.safetensors", network)
+        raise CheckpointError(f"{directory / CONFIG_NAME} describes a {description} this t2m cannot build: {error}", "retrain it with `t2m train` or upgrade t2m") from None
+    return load_weights(directory / file, network)
 
 
 def update_config(directory: Path, **sections: Any) -> dict[str, Any]:

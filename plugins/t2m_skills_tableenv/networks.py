@@ -7,6 +7,8 @@
   non-argument objects (docs/guide/skills.md#relational-q-ensemble), an option of ``t2m train``.
 - :class:`GaussianPolicy`: a tanh-squashed diagonal Gaussian; the deterministic action is tanh(μ).
 - :class:`Dynamics`: a residual MLP on the 96-D dynamics state.
+- :class:`RelationalDynamics`: the same residual prediction with the non-argument objects read as a
+  set (docs/guide/skills.md#relational-dynamics), an option of ``t2m train``.
 """
 
 from __future__ import annotations
@@ -29,6 +31,8 @@ RELATIONAL_WIDTH = 128
 """Width of the relational Q-ensemble's layers."""
 Q_NETWORKS: dict[str, str] = {"mlp": "QEnsemble", "relational": "RelationalQEnsemble"}
 """``t2m train --q-network`` name -> the architecture ``type`` a checkpoint's config records."""
+DYNAMICS_NETWORKS: dict[str, str] = {"mlp": "Dynamics", "relational": "RelationalDynamics"}
+"""``t2m train --dynamics-network`` name -> the architecture ``type`` a checkpoint's config records."""
 LOG_STD_MIN, LOG_STD_MAX = -5.0, 2.0
 
 
@@ -188,8 +192,17 @@ def build_q(architecture: dict[str, Any]) -> QEnsemble | RelationalQEnsemble:
 
 def q_network_name(architecture: dict[str, Any]) -> str:
     """The ``--q-network`` name of a checkpoint's Q architecture (``"mlp"`` when it names none)."""
-    kind = architecture.get("type", Q_NETWORKS["mlp"])
-    return next((name for name, recorded in Q_NETWORKS.items() if recorded == kind), kind)
+    return _network_name(architecture, Q_NETWORKS)
+
+
+def dynamics_network_name(architecture: dict[str, Any]) -> str:
+    """The ``--dynamics-network`` name of a checkpoint's dynamics architecture (``"mlp"`` when it names none)."""
+    return _network_name(architecture, DYNAMICS_NETWORKS)
+
+
+def _network_name(architecture: dict[str, Any], names: dict[str, str]) -> str:
+    kind = architecture.get("type", names["mlp"])
+    return next((name for name, recorded in names.items() if recorded == kind), kind)
 
 
 def mlp(sizes: tuple[int, ...]) -> nn.Sequential:
@@ -249,3 +262,81 @@ class Dynamics(nn.Module):
     def flops_per_sample(self) -> int:
         """Floating-point operations (2 × multiply-adds) for one (state, action)."""
         return 2 * sum(int(module.weight.numel()) for module in self.net if isinstance(module, nn.Linear))
+
+
+class RelationalDynamics(nn.Module):
+    """Residual dynamics that read the other objects as a set: ŝ′ = s + Δ(s, a/2).
+
+    The context ``c`` is the end-effector row, the skill's argument rows (``context_rows`` rows in
+    all) and the action rescaled to [−0.5, 0.5]. Each other present object ``o_k`` is encoded with
+    the context, ``h_k = φ(c, o_k)`` (two ReLU layers), and the encodings are max-pooled. The context
+    rows' change is ``ρ(c, max_k h_k)`` (two ReLU layers of 256), each other object's change
+    ``ψ(c, o_k, max_k h_k)`` (two ReLU layers): the same function for every object, so the
+    prediction permutes with the non-argument rows, and an absent row (all zero in raw units)
+    predicts no change. ``forward(states (N, 96), actions (N, 4)) -> (N, 96)``, like
+    :class:`Dynamics`.
+    """
+
+    def __init__(self, context_rows: int, width: int = RELATIONAL_WIDTH, hidden: tuple[int, ...] = HIDDEN) -> None:
+        super().__init__()
+        if not 1 <= context_rows < OBSERVATION_ROWS:
+            raise ValueError(f"context_rows must be in [1, {OBSERVATION_ROWS - 1}], got {context_rows}")
+        self.context_rows, self.width = context_rows, width
+        context = context_rows * ROW_FEATURES + ACTION_DIM
+        self.phi = nn.Sequential(mlp((context + ROW_FEATURES, width, width)), nn.ReLU())
+        self.rho = mlp((context + width, *hidden, context_rows * ROW_FEATURES))
+        self.psi = mlp((context + ROW_FEATURES + width, width, width, ROW_FEATURES))
+        self.register_buffer("empty_row", _EMPTY_ROW.clone(), persistent=False)
+
+    def forward(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        count = states.shape[0]
+        rows = states.reshape(count, OBSERVATION_ROWS, ROW_FEATURES)
+        context = torch.cat((rows[:, : self.context_rows].reshape(count, -1), 0.5 * actions), dim=-1)
+        others = rows[:, self.context_rows :]  # (N, K, 12)
+        objects = others.shape[1]
+        absent = torch.isclose(others, self.empty_row, atol=1e-6).all(dim=-1, keepdim=True)  # (N, K, 1)
+        shared = context.unsqueeze(1).expand(-1, objects, -1)
+        # ReLU outputs are ≥ 0, so an absent object's zeros never win the max
+        pooled = self.phi(torch.cat((shared, others), dim=-1)).masked_fill(absent, 0.0).amax(dim=1)  # (N, W)
+        context_change = self.rho(torch.cat((context, pooled), dim=-1))
+        other_change = self.psi(torch.cat((shared, others, pooled.unsqueeze(1).expand(-1, objects, -1)), dim=-1))
+        return states + torch.cat((context_change, other_change.masked_fill(absent, 0.0).reshape(count, -1)), dim=-1)
+
+    def flops_per_sample(self) -> int:
+        """Floating-point operations (2 × multiply-adds) for one (state, action), every non-argument
+        row computed (absent ones are masked afterwards)."""
+        objects = OBSERVATION_ROWS - self.context_rows
+        per_object = sum(_weights(self.phi[0])) + sum(_weights(self.psi))
+        return 2 * (objects * per_object + sum(_weights(self.rho)))
+
+
+def _weights(network: nn.Sequential) -> list[int]:
+    return [int(module.weight.numel()) for module in network if isinstance(module, nn.Linear)]
+
+
+def dynamics_architecture(skill: str, network: str) -> dict[str, Any]:
+    """The ``config.json`` architecture of ``skill``'s dynamics model of kind ``network`` (``"mlp"``
+    or ``"relational"``; the relational model's context is the end effector and the skill's arguments)."""
+    if network == "mlp":
+        return {"type": DYNAMICS_NETWORKS["mlp"], "input": 100, "hidden": list(HIDDEN), "output": 96, "residual": True}
+    from t2m_core.domain.primitives import get_primitive
+
+    context_rows = 1 + len(get_primitive(skill).argument_kinds)
+    return {"type": DYNAMICS_NETWORKS["relational"], "input": 100, "context_rows": context_rows, "width": RELATIONAL_WIDTH,
+            "hidden": list(HIDDEN), "pooling": "max", "output": 96, "residual": True}
+
+
+def build_dynamics(architecture: dict[str, Any]) -> Dynamics | RelationalDynamics:
+    """A fresh dynamics model as ``architecture`` (a checkpoint's ``models.dynamics.architecture``)
+    describes it.
+
+    Raises:
+        ValueError: an architecture type this library does not know.
+    """
+    kind = architecture.get("type", DYNAMICS_NETWORKS["mlp"])
+    hidden = tuple(architecture.get("hidden", HIDDEN))
+    if kind == DYNAMICS_NETWORKS["mlp"]:
+        return Dynamics(hidden=hidden)
+    if kind == DYNAMICS_NETWORKS["relational"]:
+        return RelationalDynamics(int(architecture["context_rows"]), width=int(architecture.get("width", RELATIONAL_WIDTH)), hidden=hidden)
+    raise ValueError(f"unknown dynamics type {kind!r} (known: {', '.join(DYNAMICS_NETWORKS.values())})")

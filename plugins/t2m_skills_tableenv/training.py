@@ -28,7 +28,9 @@ from torch import nn
 
 from t2m_skills_tableenv.checkpoints import load_q, load_training_state, save_training_state, save_weights, update_config
 from t2m_skills_tableenv.dataset import SkillTensors
-from t2m_skills_tableenv.networks import ACTION_DIM, Dynamics, GaussianPolicy, QEnsemble, RelationalQEnsemble, build_q, q_architecture
+from t2m_skills_tableenv.networks import (
+    ACTION_DIM, GaussianPolicy, QEnsemble, RelationalQEnsemble, build_dynamics, build_q, dynamics_architecture, q_architecture,
+)
 
 MODELS: tuple[str, ...] = ("q", "policy", "dynamics")
 WEIGHT_FILES: dict[str, str] = {"q": "q_ensemble.safetensors", "policy": "policy.safetensors", "dynamics": "dynamics.safetensors"}
@@ -72,6 +74,11 @@ class StageSettings(BaseModel):
         "mlp",
         description="Q-ensemble only: the published MLP, or the relational network that reads the other objects "
         "as a set (docs/guide/skills.md#relational-q-ensemble)",
+    )
+    dynamics_network: Literal["mlp", "relational"] = Field(
+        "mlp",
+        description="dynamics only: the published residual MLP, or the relational network that reads the other "
+        "objects as a set (docs/guide/skills.md#relational-dynamics)",
     )
 
 
@@ -304,9 +311,9 @@ class DynamicsStage(Stage):
 
     model = "dynamics"
 
-    def __init__(self, train: SkillTensors, validation: SkillTensors, settings: StageSettings) -> None:
+    def __init__(self, train: SkillTensors, validation: SkillTensors, settings: StageSettings, network: nn.Module) -> None:
         self.train, self.validation = train.successes(), validation.successes()
-        self.network = Dynamics()
+        self.network = network
         self.optimizer = torch.optim.Adam(self.network.parameters(), lr=settings.learning_rate)
 
     @property
@@ -485,7 +492,7 @@ def record_stage(checkpoint: Path, skill: str, model: str, settings: StageSettin
     models = dict(config.get("models", {}))
     models[model] = {
         "file": WEIGHT_FILES[model],
-        "architecture": q_architecture(skill, settings.q_network) if model == "q" else ARCHITECTURES[model],
+        "architecture": architecture(skill, model, settings),
         "training": settings.model_dump(),
         "data": data,
         "result": result,
@@ -496,8 +503,18 @@ def record_stage(checkpoint: Path, skill: str, model: str, settings: StageSettin
 ARCHITECTURES: dict[str, dict[str, Any]] = {
     "q": q_architecture("pick", "mlp"),
     "policy": {"type": "GaussianPolicy", "input": 96, "hidden": [256, 256], "output": 8, "squash": "tanh", "log_std": [-5.0, 2.0]},
-    "dynamics": {"type": "Dynamics", "input": 100, "hidden": [256, 256], "output": 96, "residual": True},
+    "dynamics": dynamics_architecture("pick", "mlp"),
 }
+"""The published (MLP) architecture of each model; the MLPs do not depend on the skill."""
+
+
+def architecture(skill: str, model: str, settings: StageSettings) -> dict[str, Any]:
+    """The ``config.json`` architecture of ``skill``'s ``model`` trained with ``settings``."""
+    if model == "q":
+        return q_architecture(skill, settings.q_network)
+    if model == "dynamics":
+        return dynamics_architecture(skill, settings.dynamics_network)
+    return ARCHITECTURES[model]
 
 
 
@@ -598,7 +615,9 @@ def train_skill(
             simulate = _simulated_selection(skill, simulator, stage_settings.selection_episodes) if stage_settings.selection_episodes else None
             stage = PolicyStage(stage_train, validation, q_ensemble, stage_settings, simulate)
         else:
-            stage = DynamicsStage(stage_train, validation, stage_settings)
+            if init_from is not None:
+                _require_same_dynamics(Path(init_from) / skill, stage_settings.dynamics_network)
+            stage = DynamicsStage(stage_train, validation, stage_settings, build_dynamics(dynamics_architecture(skill, stage_settings.dynamics_network)))
         distilled = model == "q" and init_from is not None and _distills(Path(init_from) / skill, stage_settings.q_network, bool(anchor_dirs))
         if init_from is not None and not distilled:
             load_weights(Path(init_from) / skill / WEIGHT_FILES[model], stage.network)
@@ -621,10 +640,10 @@ def _distills(directory: Path, q_network: str, anchored: bool) -> bool:
     Raises:
         T2MError: the networks differ and there are no anchors to distil on.
     """
-    from t2m_skills_tableenv.checkpoints import q_architecture_of
+    from t2m_skills_tableenv.checkpoints import architecture_of
     from t2m_skills_tableenv.networks import q_network_name
 
-    starting = q_network_name(q_architecture_of(directory))
+    starting = q_network_name(architecture_of(directory, "q"))
     if starting == q_network:
         return False
     if not anchored:
@@ -634,6 +653,23 @@ def _distills(directory: Path, q_network: str, anchored: bool) -> bool:
             f"or train a {q_network} ensemble without --init-from",
         )
     return True
+
+
+def _require_same_dynamics(directory: Path, network: str) -> None:
+    """Refuse to fine-tune the dynamics of ``directory`` into a network of another kind.
+
+    Raises:
+        T2MError: the starting model is not a ``network`` one.
+    """
+    from t2m_skills_tableenv.checkpoints import architecture_of
+    from t2m_skills_tableenv.networks import dynamics_network_name
+
+    starting = dynamics_network_name(architecture_of(directory, "dynamics"))
+    if starting != network:
+        raise T2MError(
+            f"{directory} holds a {starting} dynamics model and the settings train a {network} one",
+            f"fine-tune it with --dynamics-network {starting}, or train a {network} one without --init-from",
+        )
 
 
 def _with_overrides(settings: StageSettings, overrides: dict[str, Any]) -> StageSettings:

@@ -53,6 +53,10 @@ def train(
         str | None,
         typer.Option("--q-network", help="Q-ensemble network: mlp (published) or relational (reads the other objects as a set)."),
     ] = None,
+    dynamics_network: Annotated[
+        str | None,
+        typer.Option("--dynamics-network", help="Dynamics network: mlp (published) or relational (reads the other objects as a set)."),
+    ] = None,
     selection_episodes: Annotated[
         int | None,
         typer.Option("--selection-episodes", min=0, help="Simulated episodes selecting the policy at each evaluation (0: by the Q-ensemble)."),
@@ -102,7 +106,7 @@ def train(
     trainer = library_entry(library, "trainer")
     chosen = (
         ("steps", steps), ("eval_every", eval_every), ("learning_rate", learning_rate), ("train_size", train_size), ("ensemble_batches", ensemble_batches),
-        ("selection_episodes", selection_episodes), ("q_network", q_network), ("anchor_weight", anchor_weight),
+        ("selection_episodes", selection_episodes), ("q_network", q_network), ("dynamics_network", dynamics_network), ("anchor_weight", anchor_weight),
         ("exposure_weight", exposure_weight),
     )
     overrides = {key: value for key, value in chosen if value is not None}
