@@ -29,7 +29,7 @@ from torch import nn
 from t2m_skills_tableenv.checkpoints import load_q, load_training_state, save_training_state, save_weights, update_config
 from t2m_skills_tableenv.dataset import SkillTensors
 from t2m_skills_tableenv.networks import (
-    ACTION_DIM, GaussianPolicy, QEnsemble, RelationalQEnsemble, build_dynamics, build_q, dynamics_architecture, q_architecture,
+    ACTION_DIM, Dynamics, GaussianPolicy, QEnsemble, RelationalQEnsemble, build_dynamics, build_q, dynamics_architecture, q_architecture,
 )
 
 MODELS: tuple[str, ...] = ("q", "policy", "dynamics")
@@ -307,13 +307,14 @@ class PolicyStage(Stage):
 
 
 class DynamicsStage(Stage):
-    """MSE of the residual prediction to the encoded next state, on successful transitions."""
+    """MSE of the residual prediction to the encoded next state, on successful transitions (``network``:
+    the published MLP when none is given)."""
 
     model = "dynamics"
 
-    def __init__(self, train: SkillTensors, validation: SkillTensors, settings: StageSettings, network: nn.Module) -> None:
+    def __init__(self, train: SkillTensors, validation: SkillTensors, settings: StageSettings, network: nn.Module | None = None) -> None:
         self.train, self.validation = train.successes(), validation.successes()
-        self.network = network
+        self.network = network if network is not None else Dynamics()
         self.optimizer = torch.optim.Adam(self.network.parameters(), lr=settings.learning_rate)
 
     @property
