@@ -4,24 +4,17 @@ alone, learns a relation to another object in any row, and is built from the che
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 import torch
 from torch import nn
 
-from t2m_core.domain.observation import normalize
 from t2m_core.errors import T2MError
 from t2m_skills_tableenv.checkpoints import CheckpointError, load_dynamics, save_weights, update_config
 from t2m_skills_tableenv.dataset import SkillTensors
 from t2m_skills_tableenv.library import TableEnvSkill
 from t2m_skills_tableenv.networks import Dynamics, GaussianPolicy, QEnsemble, RelationalDynamics, dynamics_architecture
 from t2m_skills_tableenv.training import ARCHITECTURES, WEIGHT_FILES, DynamicsStage, StageSettings, run_stage, train_skill
-
-EMPTY = torch.from_numpy(normalize(np.zeros(12, dtype=np.float32)))  # a raw all-zero row, normalised
-
-
-def rows(count: int, seed: int) -> torch.Tensor:
-    return torch.rand(count, 8, 12, generator=torch.Generator().manual_seed(seed)) - 0.5
+from tests.plugins.t2m_skills_tableenv.rows import EMPTY, rows
 
 
 def test_the_prediction_permutes_with_the_other_objects() -> None:

@@ -3,22 +3,15 @@ built from the checkpoint's config (docs/guide/skills.md#relational-q-ensemble).
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 import torch
 
-from t2m_core.domain.observation import normalize
 from t2m_skills_tableenv.checkpoints import CheckpointError, load_q, save_weights, update_config
 from t2m_skills_tableenv.dataset import SkillTensors
 from t2m_skills_tableenv.library import TableEnvSkill
 from t2m_skills_tableenv.networks import Dynamics, GaussianPolicy, RelationalQEnsemble, q_architecture
 from t2m_skills_tableenv.training import ARCHITECTURES, WEIGHT_FILES, QStage, StageSettings, q_metrics, run_stage
-
-EMPTY = torch.from_numpy(normalize(np.zeros(12, dtype=np.float32)))  # a raw all-zero row, normalised
-
-
-def rows(count: int, seed: int) -> torch.Tensor:
-    return torch.rand(count, 8, 12, generator=torch.Generator().manual_seed(seed)) - 0.5
+from tests.plugins.t2m_skills_tableenv.rows import EMPTY, rows
 
 
 def test_the_order_of_the_other_objects_does_not_change_the_values() -> None:
