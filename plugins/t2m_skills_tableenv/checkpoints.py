@@ -5,8 +5,8 @@ is written atomically, and a missing, corrupt or mismatched file is an error tha
 from __future__ import annotations
 
 import json
-from pathlib import Path
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import torch
