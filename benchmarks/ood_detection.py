@@ -19,7 +19,6 @@ Exits 1 when a directory lacks a skill's splits or checkpoint.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
