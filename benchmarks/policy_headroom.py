@@ -50,12 +50,11 @@ def measure(checkpoints: Path | None, skill_name: str, simulator, episodes: int,
         action = np.asarray(skill.policy(state[None]))[0]
         candidates = np.clip(action + noise.normal(0.0, sigma, (samples, action.shape[0])), -1.0, 1.0).astype(np.float32)
         candidates[0] = action
-        members = skill.q_values(np.repeat(state[None], samples, axis=0), candidates)  # (samples, 8)
-        members = torch.as_tensor(members)
+        members = np.asarray(skill.q_values(np.repeat(state[None], samples, axis=0), candidates))  # (samples, 8)
         chosen = {
             "policy": action,
-            "best_min": candidates[int(members.min(dim=1).values.argmax())],
-            "best_mean": candidates[int(members.mean(dim=1).argmax())],
+            "best_min": candidates[int(members.min(axis=1).argmax())],
+            "best_mean": candidates[int(members.mean(axis=1).argmax())],
         }
         snapshot = simulator.get_state()
         for choice, act in chosen.items():
