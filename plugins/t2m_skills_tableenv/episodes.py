@@ -39,27 +39,37 @@ def evaluation_episodes(skill: str, simulator: Any, episodes: int, seed: int = R
         yield task.call, skill_state(reset.observation, argument_first_order(task.objects, task.call.args))
 
 
-def policy_success(skill: str, policy: Callable[[np.ndarray], Any], simulator: Any, episodes: int, seed: int = REPORT_SEED) -> dict[str, Any]:
-    """Success of a deterministic policy over ``episodes`` evaluation scenes of ``skill``, simulated.
+def policy_outcomes(skill: str, policy: Callable[[np.ndarray], Any], simulator: Any, episodes: int, seed: int = REPORT_SEED) -> list[str]:
+    """The outcome of a deterministic policy in each of ``episodes`` evaluation scenes of ``skill``, simulated.
 
     Args:
         policy: skill states ``(1, 96)`` -> actions ``(1, 4)`` in [−1, 1].
         seed: the scenes (the same seed gives the same scenes and reset seeds).
 
     Returns:
-        ``episodes`` simulated (scenes that could not be reset are not counted), ``success_rate``,
-        and ``outcomes``: the count of each failure reason and of ``success``.
+        per scene, in order: ``"success"``, the failure reason, or ``"reset_failed"`` for a scene
+        that could not be reset.
     """
-    outcomes: Counter[str] = Counter()
+    outcomes = []
     for scene in evaluation_episodes(skill, simulator, episodes, seed):
         if scene is None:
-            outcomes["reset_failed"] += 1
+            outcomes.append("reset_failed")
             continue
         call, state = scene
         action = np.asarray(policy(state[None]))[0]
-        result = simulator.execute(skill, call.args, action)
-        outcomes[result.failure or "success"] += 1
-    return outcome_summary(outcomes)
+        outcomes.append(simulator.execute(skill, call.args, action).failure or "success")
+    return outcomes
+
+
+def policy_success(skill: str, policy: Callable[[np.ndarray], Any], simulator: Any, episodes: int, seed: int = REPORT_SEED) -> dict[str, Any]:
+    """Success of a deterministic policy over ``episodes`` evaluation scenes of ``skill``, simulated
+    (:func:`policy_outcomes`, summarised by :func:`outcome_summary`).
+
+    Returns:
+        ``episodes`` simulated (scenes that could not be reset are not counted), ``success_rate``,
+        and ``outcomes``: the count of each failure reason and of ``success``.
+    """
+    return outcome_summary(Counter(policy_outcomes(skill, policy, simulator, episodes, seed)))
 
 
 def outcome_summary(outcomes: Counter[str]) -> dict[str, Any]:

@@ -80,6 +80,21 @@ class StageSettings(BaseModel):
         description="dynamics only: the published residual MLP, or the relational network that reads the other "
         "objects as a set (docs/guide/skills.md#relational-dynamics)",
     )
+    policy_targets: int = Field(
+        0, ge=0, description="policy only: for each training state, rank the starting policy's action and this many "
+        "noisy copies of it by the ensemble's min-of-8 Q, and pull the policy's action towards the best "
+        "(docs/guide/skills.md#searched-actor-targets; 0: the published actor objective alone)",
+    )
+    policy_target_sigma: float = Field(
+        0.3, gt=0, description="policy only, with policy_targets: the copies' Gaussian noise per action dimension"
+    )
+    policy_target_weight: float = Field(
+        1.0, ge=0, description="policy only, with policy_targets: weight of the squared distance to the target against the actor loss"
+    )
+    policy_target_value: Literal["min", "mean"] = Field(
+        "min", description="policy only, with policy_targets: rank the copies by the members' minimum (the actor's own, "
+        "pessimistic value) or by their mean"
+    )
 
 
 DEFAULT_SETTINGS: dict[str, StageSettings] = {
@@ -116,6 +131,10 @@ class Stage:
     @property
     def train_size(self) -> int:
         raise NotImplementedError
+
+    def prepare(self) -> None:
+        """Work that depends on the starting weights (after ``--init-from`` loaded them, before a
+        resumed state replaces them): a resumed run repeats it and gets the same result."""
 
 
 @dataclass
@@ -249,6 +268,11 @@ class PolicyStage(Stage):
     """Maximum-entropy actor against the frozen ensemble: minimise α·log π(ã|s) − min_i Q_i(s, ã),
     with α learned through log α towards the target entropy −4.
 
+    With ``settings.policy_targets`` = K > 0 it also minimises w·‖tanh μ(s) − a*(s)‖², where a*(s) is
+    the best by min-of-8 Q of the starting policy's action and K noisy copies of it
+    (:func:`searched_actions`): the same objective, searched by sampling where the gradient stops at
+    a worse local optimum (docs/guide/skills.md#searched-actor-targets).
+
     The policy is selected by ``simulate(network) -> success rate`` in simulated evaluation scenes
     when given (the published selection), else by the ensemble's mean min-of-8 Q of its actions on
     validation states (a policy can climb that by exploiting the ensemble's errors)."""
@@ -271,10 +295,20 @@ class PolicyStage(Stage):
         self.optimizer = torch.optim.Adam(self.network.parameters(), lr=settings.learning_rate)
         self.alpha_optimizer = torch.optim.Adam(self.log_alpha.parameters(), lr=settings.learning_rate)
         self.target_entropy = -float(ACTION_DIM)
+        self.settings = settings
+        self.targets: torch.Tensor | None = None
 
     @property
     def train_size(self) -> int:
         return len(self.train)
+
+    def prepare(self) -> None:
+        if self.settings.policy_targets:
+            generator = torch.Generator().manual_seed(self.settings.seed)
+            self.targets = searched_actions(
+                self.network, self.q_ensemble, self.train.rows, self.settings.policy_targets, self.settings.policy_target_sigma, generator,
+                value=self.settings.policy_target_value,
+            )
 
     def parameters_to_save(self) -> dict[str, nn.Module | torch.optim.Optimizer]:
         return {"network": self.network, "optimizer": self.optimizer, "log_alpha": self.log_alpha, "alpha_optimizer": self.alpha_optimizer}
@@ -285,6 +319,11 @@ class PolicyStage(Stage):
         q_min = self.q_ensemble.probabilities(states, actions).min(dim=1).values
         alpha = self.log_alpha.value.exp().detach()
         loss = (alpha * log_prob - q_min).mean()
+        metrics = {"alpha": alpha.item(), "q_min": q_min.mean().item()}
+        if self.targets is not None:
+            distance = (self.network(states) - self.targets[index]).square().sum(-1).mean()
+            loss = loss + self.settings.policy_target_weight * distance
+            metrics["target_distance"] = distance.item()
         self.optimizer.zero_grad(set_to_none=True)
         loss.backward()
         self.optimizer.step()
@@ -292,7 +331,7 @@ class PolicyStage(Stage):
         self.alpha_optimizer.zero_grad(set_to_none=True)
         alpha_loss.backward()
         self.alpha_optimizer.step()
-        return {"loss": loss.item(), "alpha": alpha.item(), "q_min": q_min.mean().item()}
+        return {"loss": loss.item(), **metrics}
 
     @torch.no_grad()
     def evaluate(self) -> Evaluation:
@@ -304,6 +343,42 @@ class PolicyStage(Stage):
         metrics["simulated_success"] = float(self.simulate(self.network))
         # ties in simulated success (a few dozen episodes) go to the ensemble's judgement
         return Evaluation(metrics["simulated_success"] + 1e-3 * metrics["q_min_mean"], metrics)
+
+
+@torch.no_grad()
+def searched_actions(
+    policy: GaussianPolicy,
+    q_ensemble: QEnsemble | RelationalQEnsemble,
+    rows: torch.Tensor,
+    samples: int,
+    sigma: float,
+    generator: torch.Generator,
+    value: Literal["min", "mean"] = "min",
+    pairs_per_batch: int = 65_536,
+) -> torch.Tensor:
+    """For each state, the best of the policy's deterministic action and ``samples`` copies of it
+    with N(0, sigma²) noise per dimension, clipped to [−1, 1], by the ensemble members' minimum
+    (``value="min"``) or mean (``"mean"``) success probability.
+
+    Args:
+        rows: ``(N, 8, 12)`` states in their stored row order; identical states share one search.
+
+    Returns:
+        ``(N, 4)`` actions; a state's target is never valued below the policy's own action.
+    """
+    unique, inverse = torch.unique(rows.reshape(rows.shape[0], -1), dim=0, return_inverse=True)
+    best = torch.empty(unique.shape[0], ACTION_DIM)
+    chunk = max(1, pairs_per_batch // (samples + 1))
+    for start in range(0, unique.shape[0], chunk):
+        states = unique[start:start + chunk]
+        action = policy(states)
+        noise = sigma * torch.randn(states.shape[0], samples, ACTION_DIM, generator=generator)
+        candidates = torch.cat((action[:, None], (action[:, None] + noise).clamp(-1.0, 1.0)), dim=1)  # (n, samples + 1, 4)
+        repeated = states[:, None].expand(-1, samples + 1, -1).reshape(-1, states.shape[1])
+        members = q_ensemble.probabilities(repeated, candidates.reshape(-1, ACTION_DIM))
+        ranked = (members.min(dim=1).values if value == "min" else members.mean(dim=1)).reshape(states.shape[0], -1)
+        best[start:start + chunk] = candidates[torch.arange(states.shape[0]), ranked.argmax(dim=1)]
+    return best[inverse]
 
 
 class DynamicsStage(Stage):
@@ -622,9 +697,14 @@ def train_skill(
         distilled = model == "q" and init_from is not None and _distills(Path(init_from) / skill, stage_settings.q_network, bool(anchor_dirs))
         if init_from is not None and not distilled:
             load_weights(Path(init_from) / skill / WEIGHT_FILES[model], stage.network)
+        prepared = time.perf_counter()
+        stage.prepare()
+        prepared = round(time.perf_counter() - prepared, 1)
         total = stage_settings.steps
         report = (lambda step, record, model=model, total=total: on_progress(model, step, total, record)) if on_progress else None
         results[model] = run_stage(stage, stage_settings, checkpoint, on_progress=report)
+        if model == "policy" and stage_settings.policy_targets:
+            results[model]["target_search_seconds"] = prepared
         stage_data = {**digests, "train_transitions": len(stage_train), "validation_transitions": len(validation)}
         if distilled:
             stage_data["distilled"] = True  # init_from taught the anchors; its weights did not start this network

@@ -61,6 +61,20 @@ def train(
         int | None,
         typer.Option("--selection-episodes", min=0, help="Simulated episodes selecting the policy at each evaluation (0: by the Q-ensemble)."),
     ] = None,
+    policy_targets: Annotated[
+        int | None,
+        typer.Option("--policy-targets", min=0, help="Policy: rank the starting policy's action and this many noisy copies by min-of-8 Q "
+                     "in every training state and pull the policy towards the best (0: the published actor objective alone)."),
+    ] = None,
+    policy_target_sigma: Annotated[
+        float | None, typer.Option("--policy-target-sigma", min=0.0, help="Noise of those copies per action dimension (default 0.3).")
+    ] = None,
+    policy_target_weight: Annotated[
+        float | None, typer.Option("--policy-target-weight", min=0.0, help="Weight of the distance to those targets against the actor loss (default 1).")
+    ] = None,
+    policy_target_value: Annotated[
+        str | None, typer.Option("--policy-target-value", help="Rank those copies by the members' min (default, the actor's value) or mean.")
+    ] = None,
     sim: Annotated[str, typer.Option("--sim", help="Simulator plugin of the policy-selection episodes.")] = "mujoco",
     more_train: Annotated[
         list[Path] | None,
@@ -107,7 +121,8 @@ def train(
     chosen = (
         ("steps", steps), ("eval_every", eval_every), ("learning_rate", learning_rate), ("train_size", train_size), ("ensemble_batches", ensemble_batches),
         ("selection_episodes", selection_episodes), ("q_network", q_network), ("dynamics_network", dynamics_network), ("anchor_weight", anchor_weight),
-        ("exposure_weight", exposure_weight),
+        ("exposure_weight", exposure_weight), ("policy_targets", policy_targets), ("policy_target_sigma", policy_target_sigma),
+        ("policy_target_weight", policy_target_weight), ("policy_target_value", policy_target_value),
     )
     overrides = {key: value for key, value in chosen if value is not None}
     results = {}

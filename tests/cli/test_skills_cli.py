@@ -199,6 +199,21 @@ def test_a_relational_ensemble_is_trained_loaded_and_fine_tuned_only_as_one(data
     assert unknown.exit_code != 0 and "q_network" in unknown.output
 
 
+def test_a_policy_trained_towards_searched_targets_records_them_and_a_bad_ranking_is_refused(dataset, tmp_path) -> None:
+    base = tmp_path / "base"
+    common = ["--skill", "pick", "--data", str(dataset), "--steps", "20", "--eval-every", "10", "--selection-episodes", "0"]
+    assert runner.invoke(app, ["train", *common, "--model", "q", "--out", str(base)]).exit_code == 0
+    searched = ["--model", "policy", "--policy-targets", "8", "--policy-target-value", "mean", "--policy-target-weight", "2", "--json"]
+    result = runner.invoke(app, ["train", *common, *searched, "--out", str(base)])
+    assert result.exit_code == 0, result.output
+    outcome = json.loads(result.stdout[result.stdout.index("{"):])["pick"]["policy"]
+    assert outcome["target_search_seconds"] >= 0 and "train_target_distance" in (base / "pick" / "metrics-policy.jsonl").read_text()
+    training = json.loads((base / "pick" / "config.json").read_text())["models"]["policy"]["training"]
+    assert (training["policy_targets"], training["policy_target_value"], training["policy_target_weight"]) == (8, "mean", 2.0)
+    bad = runner.invoke(app, ["train", *common, "--model", "policy", "--policy-targets", "8", "--policy-target-value", "median", "--out", str(base)])
+    assert bad.exit_code == 2 and "policy_target_value" in bad.output and "'min' or 'mean'" in bad.output
+
+
 def test_task_scenes_without_the_proposal_sampler_are_a_clear_error(tmp_path) -> None:
     result = runner.invoke(app, ["datagen", "--skill", "place", "--split", "train", "--size", "4", "--scenes", "tasks", "--out", str(tmp_path)])
     assert result.exit_code != 0

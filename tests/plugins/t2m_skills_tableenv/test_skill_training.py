@@ -349,3 +349,80 @@ def test_calibration_refuses_the_invalid_split_the_ensemble_was_exposed_to(tmp_p
     _refuse_exposed_pairs(tmp_path, tmp_path / "other" / "pick" / "invalid", "def")  # another split: fine
     with pytest.raises(T2MError, match="(?s)exposed to in training.*another --seed"):
         _refuse_exposed_pairs(tmp_path, tmp_path / "data" / "pick" / "invalid", "abc")
+
+
+
+class _TwoPeaks(torch.nn.Module):
+    """A test-double ensemble: success depends on the action's first component only, with a lower
+    peak at 0 (where a fresh policy acts) and a higher one at −0.7; the members differ slightly."""
+
+    def probabilities(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        a = actions[:, :1]
+        spread = torch.linspace(0.98, 1.0, 8)
+        return spread * torch.maximum(0.6 * torch.exp(-a.square() / 0.05), 0.95 * torch.exp(-(a + 0.7).square() / 0.05))
+
+
+class _Flat(torch.nn.Module):
+    """A test-double ensemble that rates every action 0.5: no gradient for the actor to follow."""
+
+    def probabilities(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        return 0.5 + 0.0 * actions[:, :1].expand(-1, 8)
+
+
+def test_searched_targets_are_never_valued_below_the_policys_action_and_identical_states_share_one() -> None:
+    from t2m_skills_tableenv.networks import GaussianPolicy
+    from t2m_skills_tableenv.training import searched_actions
+
+    torch.manual_seed(0)
+    policy, q = GaussianPolicy(), _TwoPeaks()
+    rows = synthetic(64, 3).rows
+    rows[32:] = rows[:32]  # every state twice
+    targets = searched_actions(policy, q, rows, 256, 0.3, torch.Generator().manual_seed(0))
+    states = rows.reshape(64, -1)
+    with torch.no_grad():
+        own = q.probabilities(states, policy(states)).min(dim=1).values
+    found = q.probabilities(states, targets).min(dim=1).values
+    assert targets.shape == (64, 4) and targets.abs().max() <= 1.0
+    assert bool((found >= own).all())
+    assert bool((own < 0.6).all()) and (found > 0.7).float().mean() > 0.9  # the higher peak, 0.7 away
+    torch.testing.assert_close(targets[32:], targets[:32])
+    again = searched_actions(policy, q, rows, 256, 0.3, torch.Generator().manual_seed(0))
+    torch.testing.assert_close(again, targets)
+
+
+class _Disputed(torch.nn.Module):
+    """A test-double ensemble with two peaks of the action's first component: at −0.5 every member
+    says 0.7; at +0.5 half say 1.0 and half 0.5 (a higher mean, a lower minimum)."""
+
+    def probabilities(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        a = actions[:, :1]
+        agreed = 0.7 * torch.exp(-(a + 0.5).square() / 0.05).expand(-1, 8)
+        disputed = torch.tensor([1.0, 0.5] * 4) * torch.exp(-(a - 0.5).square() / 0.05)
+        return torch.maximum(agreed, disputed)
+
+
+@pytest.mark.parametrize(("value", "side"), [("min", -1.0), ("mean", 1.0)])
+def test_searched_targets_rank_by_the_members_minimum_or_mean(value, side) -> None:
+    from t2m_skills_tableenv.networks import GaussianPolicy
+    from t2m_skills_tableenv.training import searched_actions
+
+    torch.manual_seed(0)
+    rows = synthetic(32, 4).rows
+    targets = searched_actions(GaussianPolicy(), _Disputed(), rows, 512, 0.3, torch.Generator().manual_seed(0), value=value)
+    assert (torch.sign(targets[:, 0]) == side).float().mean() > 0.9
+    assert (targets[:, 0] - 0.5 * side).abs().median() < 0.1
+
+
+@pytest.mark.parametrize("weight", [0.0, 1.0])
+def test_the_policy_is_pulled_towards_its_targets_by_their_weight(tmp_path, weight) -> None:
+    train, validation = synthetic(1024, 0), synthetic(256, 1)
+    settings = StageSettings(steps=300, batch_size=128, learning_rate=3e-3, eval_every=100, policy_targets=16, policy_target_weight=weight)
+    torch.manual_seed(0)
+    stage = PolicyStage(train, validation, _Flat(), settings)
+    stage.prepare()
+    assert stage.targets is not None and stage.targets.shape == (1024, 4)
+    stage.targets = torch.full((1024, 4), 0.5)  # known targets: the ensemble gives no direction of its own
+    run_stage(stage, settings, tmp_path)
+    with torch.no_grad():
+        distance = (stage.network(train.states()) - 0.5).abs().max()
+    assert (distance < 0.1) if weight else (distance > 0.2)
