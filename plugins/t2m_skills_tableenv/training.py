@@ -269,7 +269,7 @@ class PolicyStage(Stage):
     with α learned through log α towards the target entropy −4.
 
     With ``settings.policy_targets`` = K > 0 it also minimises w·‖tanh μ(s) − a*(s)‖², where a*(s) is
-    the best by min-of-8 Q of the starting policy's action and K noisy copies of it
+    the best by min-of-8 Q (or the members' mean) of the starting policy's action and K noisy copies of it
     (:func:`searched_actions`): the same objective, searched by sampling where the gradient stops at
     a worse local optimum (docs/guide/skills.md#searched-actor-targets).
 
@@ -697,14 +697,14 @@ def train_skill(
         distilled = model == "q" and init_from is not None and _distills(Path(init_from) / skill, stage_settings.q_network, bool(anchor_dirs))
         if init_from is not None and not distilled:
             load_weights(Path(init_from) / skill / WEIGHT_FILES[model], stage.network)
-        prepared = time.perf_counter()
+        started = time.perf_counter()
         stage.prepare()
-        prepared = round(time.perf_counter() - prepared, 1)
+        prepare_seconds = round(time.perf_counter() - started, 1)
         total = stage_settings.steps
         report = (lambda step, record, model=model, total=total: on_progress(model, step, total, record)) if on_progress else None
         results[model] = run_stage(stage, stage_settings, checkpoint, on_progress=report)
         if model == "policy" and stage_settings.policy_targets:
-            results[model]["target_search_seconds"] = prepared
+            results[model]["target_search_seconds"] = prepare_seconds
         stage_data = {**digests, "train_transitions": len(stage_train), "validation_transitions": len(validation)}
         if distilled:
             stage_data["distilled"] = True  # init_from taught the anchors; its weights did not start this network

@@ -154,7 +154,12 @@ def test_dynamics_trains_on_successes_and_lowers_the_error(tmp_path) -> None:
 def test_a_killed_run_resumes_from_its_last_evaluation(tmp_path) -> None:
     train, validation = synthetic(512, 0), synthetic(128, 1)
     settings = StageSettings(steps=40, batch_size=32, learning_rate=1e-3, eval_every=10)
-    whole = run_stage(QStage(train, validation, settings), settings, tmp_path / "whole")
+
+    def stage() -> QStage:
+        torch.manual_seed(settings.seed)  # the same initial weights each time, as train_skill seeds them
+        return QStage(train, validation, settings)
+
+    whole = run_stage(stage(), settings, tmp_path / "whole")
 
     class Killed(Exception):
         pass
@@ -164,8 +169,8 @@ def test_a_killed_run_resumes_from_its_last_evaluation(tmp_path) -> None:
             raise Killed
 
     with pytest.raises(Killed):
-        run_stage(QStage(train, validation, settings), settings, tmp_path / "killed", on_progress=kill_at_20)
-    resumed = run_stage(QStage(train, validation, settings), settings, tmp_path / "killed")
+        run_stage(stage(), settings, tmp_path / "killed", on_progress=kill_at_20)
+    resumed = run_stage(stage(), settings, tmp_path / "killed")
     assert resumed["best"] == pytest.approx(whole["best"], rel=1e-5)
     steps = [json.loads(line)["step"] for line in (tmp_path / "killed" / "metrics-q.jsonl").read_text().splitlines()]
     assert steps == [10, 20, 30, 40]
@@ -426,3 +431,33 @@ def test_the_policy_is_pulled_towards_its_targets_by_their_weight(tmp_path, weig
     with torch.no_grad():
         distance = (stage.network(train.states()) - 0.5).abs().max()
     assert (distance < 0.1) if weight else (distance > 0.2)
+
+
+def test_a_killed_policy_run_with_searched_targets_resumes_to_the_same_policy(tmp_path) -> None:
+    train, validation = synthetic(256, 0), synthetic(64, 1)
+    settings = StageSettings(steps=40, batch_size=32, learning_rate=1e-3, eval_every=10, policy_targets=32)
+
+    def stage() -> PolicyStage:
+        torch.manual_seed(5)  # the same starting weights each time, as --init-from would give
+        made = PolicyStage(train, validation, _TwoPeaks(), settings)
+        made.prepare()
+        return made
+
+    whole = stage()
+    run_stage(whole, settings, tmp_path / "whole")
+
+    class Killed(Exception):
+        pass
+
+    def kill_at_20(step, record):
+        if step == 20:
+            raise Killed
+
+    with pytest.raises(Killed):
+        run_stage(stage(), settings, tmp_path / "killed", on_progress=kill_at_20)
+    resumed = stage()  # searches again from the starting weights, then loads the saved state
+    torch.testing.assert_close(resumed.targets, whole.targets)
+    run_stage(resumed, settings, tmp_path / "killed")
+    states = validation.states()
+    with torch.no_grad():
+        torch.testing.assert_close(resumed.network(states), whole.network(states))
