@@ -151,6 +151,21 @@ def test_dynamics_trains_on_successes_and_lowers_the_error(tmp_path) -> None:
     assert result["best"]["loss"] < 0.5 * before
 
 
+class _Killed(Exception):
+    pass
+
+
+def _killed_at_step_20(stage, settings: StageSettings, checkpoint) -> None:
+    """Run ``stage`` until its evaluation at step 20, then stop it as a kill would."""
+
+    def kill(step, record):
+        if step == 20:
+            raise _Killed
+
+    with pytest.raises(_Killed):
+        run_stage(stage, settings, checkpoint, on_progress=kill)
+
+
 def test_a_killed_run_resumes_from_its_last_evaluation(tmp_path) -> None:
     train, validation = synthetic(512, 0), synthetic(128, 1)
     settings = StageSettings(steps=40, batch_size=32, learning_rate=1e-3, eval_every=10)
@@ -161,15 +176,7 @@ def test_a_killed_run_resumes_from_its_last_evaluation(tmp_path) -> None:
 
     whole = run_stage(stage(), settings, tmp_path / "whole")
 
-    class Killed(Exception):
-        pass
-
-    def kill_at_20(step, record):
-        if step == 20:
-            raise Killed
-
-    with pytest.raises(Killed):
-        run_stage(stage(), settings, tmp_path / "killed", on_progress=kill_at_20)
+    _killed_at_step_20(stage(), settings, tmp_path / "killed")
     resumed = run_stage(stage(), settings, tmp_path / "killed")
     assert resumed["best"] == pytest.approx(whole["best"], rel=1e-5)
     steps = [json.loads(line)["step"] for line in (tmp_path / "killed" / "metrics-q.jsonl").read_text().splitlines()]
@@ -446,15 +453,7 @@ def test_a_killed_policy_run_with_searched_targets_resumes_to_the_same_policy(tm
     whole = stage()
     run_stage(whole, settings, tmp_path / "whole")
 
-    class Killed(Exception):
-        pass
-
-    def kill_at_20(step, record):
-        if step == 20:
-            raise Killed
-
-    with pytest.raises(Killed):
-        run_stage(stage(), settings, tmp_path / "killed", on_progress=kill_at_20)
+    _killed_at_step_20(stage(), settings, tmp_path / "killed")
     resumed = stage()  # searches again from the starting weights, then loads the saved state
     torch.testing.assert_close(resumed.targets, whole.targets)
     run_stage(resumed, settings, tmp_path / "killed")
