@@ -132,9 +132,10 @@ class Stage:
     def train_size(self) -> int:
         raise NotImplementedError
 
-    def prepare(self) -> None:
+    def prepare(self, on_progress: Callable[[int, int], None] | None = None) -> None:
         """Work that depends on the starting weights (after ``--init-from`` loaded them, before a
-        resumed state replaces them): a resumed run repeats it and gets the same result."""
+        resumed state replaces them): a resumed run repeats it and gets the same result.
+        ``on_progress(done, total)`` follows it."""
 
 
 @dataclass
@@ -302,12 +303,12 @@ class PolicyStage(Stage):
     def train_size(self) -> int:
         return len(self.train)
 
-    def prepare(self) -> None:
+    def prepare(self, on_progress: Callable[[int, int], None] | None = None) -> None:
         if self.settings.policy_targets:
             generator = torch.Generator().manual_seed(self.settings.seed)
             self.targets = searched_actions(
                 self.network, self.q_ensemble, self.train.rows, self.settings.policy_targets, self.settings.policy_target_sigma, generator,
-                value=self.settings.policy_target_value,
+                value=self.settings.policy_target_value, on_progress=on_progress,
             )
 
     def parameters_to_save(self) -> dict[str, nn.Module | torch.optim.Optimizer]:
@@ -355,6 +356,7 @@ def searched_actions(
     generator: torch.Generator,
     value: Literal["min", "mean"] = "min",
     pairs_per_batch: int = 65_536,
+    on_progress: Callable[[int, int], None] | None = None,
 ) -> torch.Tensor:
     """For each state, the best of the policy's deterministic action and ``samples`` copies of it
     with N(0, sigma²) noise per dimension, clipped to [−1, 1], by the ensemble members' minimum
@@ -362,6 +364,8 @@ def searched_actions(
 
     Args:
         rows: ``(N, 8, 12)`` states in their stored row order; identical states share one search.
+
+        on_progress: called with (distinct states searched, distinct states) after every batch.
 
     Returns:
         ``(N, 4)`` actions; a state's target is never valued below the policy's own action.
@@ -378,6 +382,8 @@ def searched_actions(
         members = q_ensemble.probabilities(repeated, candidates.reshape(-1, ACTION_DIM))
         ranked = (members.min(dim=1).values if value == "min" else members.mean(dim=1)).reshape(states.shape[0], -1)
         best[start:start + chunk] = candidates[torch.arange(states.shape[0]), ranked.argmax(dim=1)]
+        if on_progress:
+            on_progress(start + states.shape[0], unique.shape[0])
     return best[inverse]
 
 
@@ -698,7 +704,8 @@ def train_skill(
         if init_from is not None and not distilled:
             load_weights(Path(init_from) / skill / WEIGHT_FILES[model], stage.network)
         started = time.perf_counter()
-        stage.prepare()
+        # the bar counts the distinct states searched, then the steps
+        stage.prepare((lambda done, total, model=model: on_progress(model, done, total, {"targets_searched": done})) if on_progress else None)
         prepare_seconds = round(time.perf_counter() - started, 1)
         total = stage_settings.steps
         report = (lambda step, record, model=model, total=total: on_progress(model, step, total, record)) if on_progress else None

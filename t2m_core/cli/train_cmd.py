@@ -13,6 +13,8 @@ from t2m_core.errors import T2MError
 
 SKILL_NAMES = ("pick", "place", "pull", "push")
 MODEL_NAMES = ("q", "policy", "dynamics")
+SHOWN_METRICS = ("loss", "train_anchor_loss", "exposure_variance", "precision", "recall", "q_min_mean", "simulated_success", "targets_searched")
+"""The metrics a training's progress bar shows (``targets_searched``: the policy's searched targets, before its steps)."""
 
 
 def _skills(skill: str) -> tuple[str, ...]:
@@ -148,7 +150,7 @@ def _train_with_progress(
         tasks = {m: bar.add_task(f"{skill} {m}", total=None, metric="") for m in models}
 
         def update(model: str, step: int, total: int, record: dict[str, float]) -> None:
-            shown = {k: v for k, v in record.items() if k in ("loss", "train_anchor_loss", "exposure_variance", "precision", "recall", "q_min_mean", "simulated_success")}
+            shown = {k: v for k, v in record.items() if k in SHOWN_METRICS}
             bar.update(tasks[model], completed=step, total=total, metric=" ".join(f"{k} {v:.4g}" for k, v in shown.items()))
 
         # libraries without these keywords still train on one dataset from scratch

@@ -389,7 +389,10 @@ def test_searched_targets_are_never_valued_below_the_policys_action_and_identica
     policy, q = GaussianPolicy(), _TwoPeaks()
     rows = synthetic(64, 3).rows
     rows[32:] = rows[:32]  # every state twice
-    targets = searched_actions(policy, q, rows, 256, 0.3, torch.Generator().manual_seed(0))
+    progress: list[tuple[int, int]] = []
+    targets = searched_actions(policy, q, rows, 256, 0.3, torch.Generator().manual_seed(0), pairs_per_batch=257 * 10,
+                               on_progress=lambda done, total: progress.append((done, total)))
+    assert progress == [(10, 32), (20, 32), (30, 32), (32, 32)]  # 32 distinct states, 10 per batch
     states = rows.reshape(64, -1)
     with torch.no_grad():
         own = q.probabilities(states, policy(states)).min(dim=1).values
