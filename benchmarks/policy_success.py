@@ -23,8 +23,9 @@ import numpy as np
 SKILLS = ("pick", "place", "pull", "push")
 
 
-def outcomes(skill_name: str, checkpoints: str, simulator, episodes: int, seed: int) -> list[str]:
-    """The outcome (``"success"``, a failure reason or ``"reset_failed"``) of each of the ``episodes`` scenes of ``seed``."""
+def outcomes(skill_name: str, checkpoints: str, simulator, episodes: int, seeds: list[int]) -> dict[int, list[str]]:
+    """seed -> the outcome (``"success"``, a failure reason or ``"reset_failed"``) of each of the
+    ``episodes`` scenes of that seed."""
     import torch
 
     from t2m_skills_tableenv.episodes import policy_outcomes
@@ -33,8 +34,9 @@ def outcomes(skill_name: str, checkpoints: str, simulator, episodes: int, seed: 
 
     options = TableEnvSkillsOptions() if checkpoints == "shipped" else TableEnvSkillsOptions(checkpoints=Path(checkpoints))
     skill = load_library(options)[skill_name]
+    act = lambda states: np.asarray(skill.policy(states))  # noqa: E731
     with torch.no_grad():
-        return policy_outcomes(skill_name, lambda states: np.asarray(skill.policy(states)), simulator, episodes, seed)
+        return {seed: policy_outcomes(skill_name, act, simulator, episodes, seed) for seed in seeds}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -64,7 +66,7 @@ def main(argv: list[str] | None = None) -> int:
     runs: dict[str, dict[int, list[str]]] = {}
     try:
         for name in names:
-            runs[name] = {seed: outcomes(args.skill, name, simulator, args.episodes, seed) for seed in seeds}
+            runs[name] = outcomes(args.skill, name, simulator, args.episodes, seeds)
     except (T2MError, OSError) as error:  # a missing or broken checkpoint: the library's own message
         print(f"error: {error}", file=sys.stderr)
         return 1

@@ -239,7 +239,12 @@ class GaussianPolicy(nn.Module):
 
     def sample(self, states: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Reparameterised ``(actions (N, 4), log π(a|s) (N,))``."""
-        mean, log_std = self.distribution(states)
+        return self.sample_from(*self.distribution(states))
+
+    @staticmethod
+    def sample_from(mean: torch.Tensor, log_std: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """:meth:`sample` of a :meth:`distribution` already computed (whose mean also gives the
+        deterministic action, tanh(μ))."""
         std = log_std.exp()
         pre_tanh = mean + std * torch.randn_like(mean)
         action = torch.tanh(pre_tanh)

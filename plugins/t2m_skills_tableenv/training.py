@@ -316,13 +316,14 @@ class PolicyStage(Stage):
 
     def step(self, index: torch.Tensor, generator: torch.Generator) -> dict[str, float]:
         states = self.train.states(index, generator)
-        actions, log_prob = self.network.sample(states)
+        mean, log_std = self.network.distribution(states)
+        actions, log_prob = self.network.sample_from(mean, log_std)
         q_min = self.q_ensemble.probabilities(states, actions).min(dim=1).values
         alpha = self.log_alpha.value.exp().detach()
         loss = (alpha * log_prob - q_min).mean()
         metrics = {"alpha": alpha.item(), "q_min": q_min.mean().item()}
         if self.targets is not None:
-            distance = (self.network(states) - self.targets[index]).square().sum(-1).mean()
+            distance = (torch.tanh(mean) - self.targets[index]).square().sum(-1).mean()  # the deterministic action's
             loss = loss + self.settings.policy_target_weight * distance
             metrics["target_distance"] = distance.item()
         self.optimizer.zero_grad(set_to_none=True)
