@@ -9,6 +9,8 @@
 - :class:`Dynamics`: a residual MLP on the 96-D dynamics state.
 - :class:`RelationalDynamics`: the same residual prediction with the non-argument objects read as a
   set (docs/guide/skills.md#relational-dynamics), an option of ``t2m train``.
+- :class:`PriorDynamics`: an MLP that corrects the primitive's geometric prediction of the next state
+  (docs/guide/skills.md#geometric-prior), an option of ``t2m train``.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import torch
 from torch import nn
 
 from t2m_core.domain.observation import FEATURES as ROW_FEATURES
-from t2m_core.domain.observation import OBSERVATION_ROWS, normalize
+from t2m_core.domain.observation import OBSERVATION_ROWS, normalize, unnormalize
 
 STATE_DIM = 96
 ACTION_DIM = 4
@@ -31,7 +33,7 @@ RELATIONAL_WIDTH = 128
 """Width of the relational Q-ensemble's layers."""
 Q_NETWORKS: dict[str, str] = {"mlp": "QEnsemble", "relational": "RelationalQEnsemble"}
 """``t2m train --q-network`` name -> the architecture ``type`` a checkpoint's config records."""
-DYNAMICS_NETWORKS: dict[str, str] = {"mlp": "Dynamics", "relational": "RelationalDynamics"}
+DYNAMICS_NETWORKS: dict[str, str] = {"mlp": "Dynamics", "relational": "RelationalDynamics", "prior": "PriorDynamics"}
 """``t2m train --dynamics-network`` name -> the architecture ``type`` a checkpoint's config records."""
 LOG_STD_MIN, LOG_STD_MAX = -5.0, 2.0
 
@@ -171,6 +173,9 @@ def q_architecture(skill: str, network: str) -> dict[str, Any]:
     from t2m_core.domain.primitives import get_primitive
 
     context_rows = 1 + len(get_primitive(skill).argument_kinds)
+    if network == "prior":
+        return {"type": DYNAMICS_NETWORKS["prior"], "skill": skill, "context_rows": context_rows, "input": 100,
+                "hidden": list(HIDDEN), "output": 96, "residual": "geometric prior"}
     return {"type": Q_NETWORKS["relational"], "members": ENSEMBLE_SIZE, "input": 100, "context_rows": context_rows,
             "width": RELATIONAL_WIDTH, "pooling": "max", "output": "sigmoid", "loss": "bce"}
 
@@ -315,6 +320,54 @@ class RelationalDynamics(nn.Module):
         return 2 * (objects * per_object + sum(_weights(self.rho)))
 
 
+class PriorDynamics(nn.Module):
+    """Dynamics that correct the primitive's own geometry: ŝ′ = p + f(c(s), a/2, c(p) − c(s)).
+
+    ``p`` is the next state the primitive's commanded poses predict
+    (:func:`~t2m_skills_tableenv.geometric_prior.prior_next_rows`: the carried object, the EE and
+    the hook exactly, a swept box moved with the hook's head), encoded like the states. ``c(·)``
+    takes the context rows, the EE's and the skill's arguments' (``context_rows`` of them): the
+    MLP ``(2·12·context_rows + 4) → 256 → 256 → 12·context_rows`` learns what the geometry does not
+    know (settling, sliding, turning against the head) for those rows only. The other objects are
+    the prior's, unchanged: a skill that moves a bystander has failed (``disturbed``), and the
+    dynamics model only successes. The output layer starts at zero, so an untrained network predicts
+    the prior. The prior is computed in float64 numpy and is not differentiated through (planning
+    never needs gradients of the dynamics). ``forward(states (N, 96), actions (N, 4)) -> (N, 96)``,
+    like :class:`Dynamics`.
+    """
+
+    def __init__(self, skill: str, context_rows: int, hidden: tuple[int, ...] = HIDDEN) -> None:
+        super().__init__()
+        from t2m_skills_tableenv.geometric_prior import PRIOR_SKILLS
+
+        if skill not in PRIOR_SKILLS:
+            raise ValueError(f"no geometric prior for skill {skill!r} (known: {', '.join(PRIOR_SKILLS)})")
+        if not 1 <= context_rows < OBSERVATION_ROWS:
+            raise ValueError(f"context_rows must be in [1, {OBSERVATION_ROWS - 1}], got {context_rows}")
+        self.skill, self.context = skill, context_rows * ROW_FEATURES
+        self.net = mlp((2 * self.context + ACTION_DIM, *hidden, self.context))
+        nn.init.zeros_(self.net[-1].weight)
+
+    def prior(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        """``(N, 96)`` the encoded geometric prediction for normalised ``states`` and ``actions``."""
+        from t2m_skills_tableenv.geometric_prior import prior_next_rows
+
+        rows = unnormalize(states.detach().cpu().numpy().reshape(-1, OBSERVATION_ROWS, ROW_FEATURES))
+        predicted = normalize(prior_next_rows(self.skill, rows, actions.detach().cpu().numpy()))
+        return torch.from_numpy(predicted.reshape(-1, STATE_DIM)).to(device=states.device, dtype=states.dtype)
+
+    def forward(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        prior = self.prior(states, actions)
+        context, predicted = states[:, : self.context], prior[:, : self.context]
+        correction = self.net(torch.cat((context, 0.5 * actions, predicted - context), dim=-1))
+        return torch.cat((predicted + correction, prior[:, self.context :]), dim=-1)
+
+    def flops_per_sample(self) -> int:
+        """Floating-point operations (2 × multiply-adds) of the network for one (state, action); the
+        prior's geometry is not counted."""
+        return 2 * sum(_weights(self.net))
+
+
 def _weights(network: nn.Sequential) -> list[int]:
     return [int(module.weight.numel()) for module in network if isinstance(module, nn.Linear)]
 
@@ -327,11 +380,14 @@ def dynamics_architecture(skill: str, network: str) -> dict[str, Any]:
     from t2m_core.domain.primitives import get_primitive
 
     context_rows = 1 + len(get_primitive(skill).argument_kinds)
+    if network == "prior":
+        return {"type": DYNAMICS_NETWORKS["prior"], "skill": skill, "context_rows": context_rows, "input": 100,
+                "hidden": list(HIDDEN), "output": 96, "residual": "geometric prior"}
     return {"type": DYNAMICS_NETWORKS["relational"], "input": 100, "context_rows": context_rows, "width": RELATIONAL_WIDTH,
             "hidden": list(HIDDEN), "pooling": "max", "output": 96, "residual": True}
 
 
-def build_dynamics(architecture: dict[str, Any]) -> Dynamics | RelationalDynamics:
+def build_dynamics(architecture: dict[str, Any]) -> Dynamics | RelationalDynamics | PriorDynamics:
     """A fresh dynamics model as ``architecture`` (a checkpoint's ``models.dynamics.architecture``)
     describes it.
 
@@ -344,4 +400,6 @@ def build_dynamics(architecture: dict[str, Any]) -> Dynamics | RelationalDynamic
         return Dynamics(hidden=hidden)
     if kind == DYNAMICS_NETWORKS["relational"]:
         return RelationalDynamics(int(architecture["context_rows"]), width=int(architecture.get("width", RELATIONAL_WIDTH)), hidden=hidden)
+    if kind == DYNAMICS_NETWORKS["prior"]:
+        return PriorDynamics(str(architecture["skill"]), int(architecture["context_rows"]), hidden=hidden)
     raise ValueError(f"unknown dynamics type {kind!r} (known: {', '.join(DYNAMICS_NETWORKS.values())})")

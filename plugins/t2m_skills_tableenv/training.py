@@ -75,10 +75,11 @@ class StageSettings(BaseModel):
         description="Q-ensemble only: the published MLP, or the relational network that reads the other objects "
         "as a set (docs/guide/skills.md#relational-q-ensemble)",
     )
-    dynamics_network: Literal["mlp", "relational"] = Field(
+    dynamics_network: Literal["mlp", "relational", "prior"] = Field(
         "mlp",
-        description="dynamics only: the published residual MLP, or the relational network that reads the other "
-        "objects as a set (docs/guide/skills.md#relational-dynamics)",
+        description="dynamics only: the published residual MLP, the relational network that reads the other "
+        "objects as a set (docs/guide/skills.md#relational-dynamics), or an MLP that corrects the primitive's "
+        "geometric prediction (docs/guide/skills.md#geometric-prior)",
     )
     policy_targets: int = Field(
         0, ge=0, description="policy only: for each training state, rank the starting policy's action and this many "

@@ -57,7 +57,7 @@ def train(
     ] = None,
     dynamics_network: Annotated[
         str | None,
-        typer.Option("--dynamics-network", help="Dynamics network: mlp (published) or relational (reads the other objects as a set)."),
+        typer.Option("--dynamics-network", help="Dynamics network: mlp (published), relational (reads the other objects as a set) or prior (corrects the primitive's geometric prediction)."),
     ] = None,
     selection_episodes: Annotated[
         int | None,

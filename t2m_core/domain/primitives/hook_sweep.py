@@ -81,32 +81,47 @@ def sweep_poses(
     """Hook poses ``c + Rz(φ)·(r_reach, y, 0)`` and ``c + Rz(φ)·(r_reach + r_sweep, y, 0)`` with the
     hook yawed ``φ + θ``, converted to EE poses with the current grasp transform (metres, radians).
     Floats give one sweep; ``(B,)`` arrays give B."""
-    target_xy = state.objects[target].position[:2]
-    phi = float(np.arctan2(target_xy[1], target_xy[0]))
-    frame = yaw_to_quat(phi)
+    hook_pose = state.objects[hook]
+    poses = batched_sweep_poses(
+        state.objects[target].position[:2], hook_pose.position, hook_pose.quaternion, state.ee_position, state.ee_quaternion,
+        r_reach, r_sweep, y, theta,
+    )
+    if np.ndim(poses.hook_yaw) == 0:
+        return SweepPoses(poses.reach_position, poses.end_position, float(poses.yaw), poses.hook_reach, poses.hook_end, float(poses.hook_yaw))
+    return poses
+
+
+def batched_sweep_poses(
+    target_xy: np.ndarray,
+    hook_position: np.ndarray,
+    hook_quaternion: np.ndarray,
+    ee_position: np.ndarray,
+    ee_quaternion: np.ndarray,
+    r_reach: float | np.ndarray,
+    r_sweep: float | np.ndarray,
+    y: float | np.ndarray,
+    theta: float | np.ndarray,
+) -> SweepPoses:
+    """:func:`sweep_poses` from arrays, broadcast over leading axes: ``(..., 2)`` target xy,
+    ``(..., 3)`` positions and ``(..., 4)`` xyzw quaternions of the hook and the EE (relative to
+    home), ``(...)`` physical action parameters; every field of the result has the leading axes."""
+    target_xy = np.asarray(target_xy, dtype=np.float64)
+    phi = np.arctan2(target_xy[..., 1], target_xy[..., 0])
     parameters = (np.asarray(value, dtype=np.float64) for value in (r_reach, r_sweep, y, theta))
     r_reach, r_sweep, y, theta = np.broadcast_arrays(*parameters)
-    base_point = np.array([target_xy[0], target_xy[1], SWEEP_HEIGHT])
+    frame = yaw_to_quat(phi)
+    base_point = np.concatenate((target_xy, np.full((*target_xy.shape[:-1], 1), SWEEP_HEIGHT)), axis=-1)
     hook_reach = base_point + rotate(frame, np.stack((r_reach, y, np.zeros_like(y)), axis=-1))
     hook_end = base_point + rotate(frame, np.stack((r_reach + r_sweep, y, np.zeros_like(y)), axis=-1))
     hook_quat = quat_multiply(frame, yaw_to_quat(theta))
 
     # Grasp transform T_hook⁻¹·T_ee. EE orientations are relative to home on both sides of the
     # composition, so the home orientation cancels.
-    hook_pose = state.objects[hook]
-    hook_inverse = quat_conjugate(hook_pose.quaternion)
-    ee_in_hook = rotate(hook_inverse, state.ee_position - hook_pose.position)
-    ee_quat = quat_multiply(hook_quat, quat_multiply(hook_inverse, state.ee_quaternion))
+    hook_inverse = quat_conjugate(hook_quaternion)
+    ee_in_hook = rotate(hook_inverse, np.asarray(ee_position, dtype=np.float64) - hook_position)
+    ee_quat = quat_multiply(hook_quat, quat_multiply(hook_inverse, ee_quaternion))
     offset = rotate(hook_quat, ee_in_hook)
-    hook_yaw = phi + theta
-    return SweepPoses(
-        hook_reach + offset,
-        hook_end + offset,
-        quat_yaw(ee_quat),
-        hook_reach,
-        hook_end,
-        float(hook_yaw) if hook_yaw.ndim == 0 else hook_yaw,
-    )
+    return SweepPoses(hook_reach + offset, hook_end + offset, quat_yaw(ee_quat), hook_reach, hook_end, phi + theta)
 
 
 class HookSweep(Primitive):

@@ -150,13 +150,7 @@ def predict_sweep(
     target_start = object_geometry(target, target_pose).footprints[0]
     sweep = (np.asarray(hook_end) - hook_reach)[..., :2]
     direction = unit(sweep)
-    gap = _distances_to(reach[..., HEAD, :, :], target_start)
-    shift = np.maximum(0.0, np.linalg.norm(sweep, axis=-1) - gap)[..., None] * direction
-    if along_head_normal:
-        # The head's face looks along the hook's x axis.
-        normal = np.stack((np.cos(hook_yaw), np.sin(hook_yaw)), axis=-1)
-        normal = np.where((np.sum(normal * direction, axis=-1) >= 0.0)[..., None], normal, -normal)
-        shift = np.sum(shift * normal, axis=-1)[..., None] * normal
+    shift = target_shifts(reach[..., HEAD, :, :], target_start, sweep, hook_yaw, along_head_normal=along_head_normal)
     drift = shift
     if into_crook:
         handle = reach[..., HANDLE, :, :]
@@ -168,8 +162,31 @@ def predict_sweep(
     return SweepPrediction(reach, sweep, hook_yaw, target_start, xy, shift, drift, ee_path)
 
 
+def target_shifts(
+    head_reach: np.ndarray, target_footprint: np.ndarray, sweep: np.ndarray, hook_yaw: np.ndarray, *, along_head_normal: bool
+) -> np.ndarray:
+    """``(..., 2)`` the target's displacement by sweeps, metres: it moves with the hook once the head
+    closes the gap to it, along the sweep or (``along_head_normal``, Push) along the head's normal.
+
+    Args:
+        head_reach: ``(..., 4, 2)`` the head's footprint at the reach pose.
+        target_footprint: ``(..., K, 2)`` the target's footprint now (convex).
+        sweep: ``(..., 2)`` the hook's travel; hook_yaw: ``(...)`` its yaw during the sweep, radians.
+    """
+    direction = unit(sweep)
+    gap = _distances_to(head_reach, target_footprint)
+    shift = np.maximum(0.0, np.linalg.norm(sweep, axis=-1) - gap)[..., None] * direction
+    if along_head_normal:
+        # The head's face looks along the hook's x axis.
+        normal = np.stack((np.cos(hook_yaw), np.sin(hook_yaw)), axis=-1)
+        normal = np.where((np.sum(normal * direction, axis=-1) >= 0.0)[..., None], normal, -normal)
+        shift = np.sum(shift * normal, axis=-1)[..., None] * normal
+    return shift
+
+
 def _distances_to(footprints: np.ndarray, polygon: np.ndarray) -> np.ndarray:
-    """``(B,)`` distances from ``(B, K, 2)`` convex footprints to one convex ``(L, 2)`` polygon, metres."""
+    """``(B,)`` distances from ``(B, K, 2)`` convex footprints to a convex ``(L, 2)`` polygon (or B of
+    them, ``(B, L, 2)``), metres."""
     return hull_distances(footprints, polygon_edges(footprints), polygon, polygon_edges(polygon))
 
 
