@@ -36,6 +36,8 @@ Q_NETWORKS: dict[str, str] = {"mlp": "QEnsemble", "relational": "RelationalQEnse
 DYNAMICS_NETWORKS: dict[str, str] = {"mlp": "Dynamics", "relational": "RelationalDynamics", "prior": "PriorDynamics"}
 """``t2m train --dynamics-network`` name -> the architecture ``type`` a checkpoint's config records."""
 LOG_STD_MIN, LOG_STD_MAX = -5.0, 2.0
+YAW_FEATURE = 5
+"""A row's rotation-vector z: the yaw of an upright object, radians before normalisation."""
 
 
 class QEnsemble(nn.Module):
@@ -359,13 +361,36 @@ class PriorDynamics(nn.Module):
     def forward(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
         prior = self.prior(states, actions)
         context, predicted = states[:, : self.context], prior[:, : self.context]
-        correction = self.net(torch.cat((context, 0.5 * actions, predicted - context), dim=-1))
-        return torch.cat((predicted + correction, prior[:, self.context :]), dim=-1)
+        corrected = predicted + self.net(torch.cat((context, 0.5 * actions, predicted - context), dim=-1))
+        count = corrected.shape[0]
+        rows = corrected.reshape(count, -1, ROW_FEATURES)
+        # a corrected yaw beyond ±π is the same turn: back into the encoding's range
+        rows = torch.cat((rows[..., :YAW_FEATURE], wrapped_yaw(rows[..., YAW_FEATURE : YAW_FEATURE + 1]), rows[..., YAW_FEATURE + 1 :]), dim=-1)
+        return torch.cat((rows.reshape(count, -1), prior[:, self.context :]), dim=-1)
+
+    @staticmethod
+    def loss(predicted: torch.Tensor, targets: torch.Tensor) -> torch.Tensor:
+        """Mean squared error of ``(N, 96)`` encoded states with each row's yaw (the rotation vector's
+        z, feature 5) compared modulo a full turn: an upright object at +179° and one at −179° are 2°
+        apart, not 358° (the rotation vector of a yaw jumps at ±π; in 4–11 % of the successful
+        transitions the recorded next yaw of the moved object or the EE lies across that jump from
+        the prior's)."""
+        difference = (predicted - targets).reshape(predicted.shape[0], -1, ROW_FEATURES)
+        difference = torch.cat(
+            (difference[..., :YAW_FEATURE], wrapped_yaw(difference[..., YAW_FEATURE : YAW_FEATURE + 1]), difference[..., YAW_FEATURE + 1 :]), dim=-1
+        )
+        return difference.square().mean()
 
     def flops_per_sample(self) -> int:
         """Floating-point operations (2 × multiply-adds) of the network for one (state, action); the
         prior's geometry is not counted."""
         return 2 * sum(_weights(self.net))
+
+
+def wrapped_yaw(normalised: torch.Tensor) -> torch.Tensor:
+    """Normalised yaws (a full turn is 1.0 after :func:`~t2m_core.domain.observation.normalize`)
+    wrapped into [−0.5, 0.5)."""
+    return normalised - torch.floor(normalised + 0.5)
 
 
 def _weights(network: nn.Sequential) -> list[int]:

@@ -410,7 +410,7 @@ class DynamicsStage(Stage):
     def step(self, index: torch.Tensor, generator: torch.Generator) -> dict[str, float]:
         states = self.train.states(index)
         targets = self.train.next_rows[index].reshape(len(index), -1)
-        loss = nn.functional.mse_loss(self.network(states, self.train.actions[index]), targets)
+        loss = self.loss(self.network(states, self.train.actions[index]), targets)
         self.optimizer.zero_grad(set_to_none=True)
         loss.backward()
         self.optimizer.step()
@@ -420,8 +420,14 @@ class DynamicsStage(Stage):
     def evaluate(self) -> Evaluation:
         states = self.validation.states()
         targets = self.validation.next_rows.reshape(len(self.validation), -1)
-        loss = float(nn.functional.mse_loss(self.network(states, self.validation.actions), targets))
+        loss = float(self.loss(self.network(states, self.validation.actions), targets))
         return Evaluation(-loss, {"loss": loss})
+
+    def loss(self, predicted: torch.Tensor, targets: torch.Tensor) -> torch.Tensor:
+        """The network's own loss where it has one (:meth:`PriorDynamics.loss`: yaws modulo a turn),
+        else the published mean squared error."""
+        own = getattr(self.network, "loss", None)
+        return own(predicted, targets) if own is not None else nn.functional.mse_loss(predicted, targets)
 
 
 @torch.no_grad()
