@@ -15,7 +15,7 @@ grasp and the lift of Pick, the release pose of Place, the hook's reach and swee
 - every other object stays where it is.
 
 It knows no physics: what happens when a box is released, slides or turns against the hook is left
-to the learned network that corrects it (:class:`~t2m_skills_tableenv.networks.PriorDynamics`).
+to the learned network that corrects it (:class:`~t2m_skills_tableenv.prior_dynamics.PriorDynamics`).
 Rows are raw (un-normalised) and argument-first: row 0 the EE, then the skill's arguments in order.
 """
 

@@ -9,8 +9,9 @@
 - :class:`Dynamics`: a residual MLP on the 96-D dynamics state.
 - :class:`RelationalDynamics`: the same residual prediction with the non-argument objects read as a
   set (docs/guide/skills.md#relational-dynamics), an option of ``t2m train``.
-- :class:`PriorDynamics`: an MLP that corrects the primitive's geometric prediction of the next state
-  (docs/guide/skills.md#geometric-prior), an option of ``t2m train``.
+- :class:`~t2m_skills_tableenv.prior_dynamics.PriorDynamics` (its own module): an MLP that corrects
+  the primitive's geometric prediction of the next state (docs/guide/skills.md#geometric-prior), an
+  option of ``t2m train``.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ import torch
 from torch import nn
 
 from t2m_core.domain.observation import FEATURES as ROW_FEATURES
-from t2m_core.domain.observation import OBSERVATION_ROWS, normalize, unnormalize
+from t2m_core.domain.observation import OBSERVATION_ROWS, normalize
 
 STATE_DIM = 96
 ACTION_DIM = 4
@@ -36,8 +37,7 @@ Q_NETWORKS: dict[str, str] = {"mlp": "QEnsemble", "relational": "RelationalQEnse
 DYNAMICS_NETWORKS: dict[str, str] = {"mlp": "Dynamics", "relational": "RelationalDynamics", "prior": "PriorDynamics"}
 """``t2m train --dynamics-network`` name -> the architecture ``type`` a checkpoint's config records."""
 LOG_STD_MIN, LOG_STD_MAX = -5.0, 2.0
-YAW_FEATURE = 5
-"""A row's rotation-vector z: the yaw of an upright object, radians before normalisation."""
+
 
 
 class QEnsemble(nn.Module):
@@ -176,7 +176,9 @@ def q_architecture(skill: str, network: str) -> dict[str, Any]:
 
     context_rows = 1 + len(get_primitive(skill).argument_kinds)
     if network == "prior":
-        return {"type": DYNAMICS_NETWORKS["prior"], "skill": skill, "context_rows": context_rows, "input": 100,
+        # a sweep's physics is the same wherever on the table it happens: read it in the action's frame
+        frame = "target" if skill in ("pull", "push") else "world"
+        return {"type": DYNAMICS_NETWORKS["prior"], "skill": skill, "context_rows": context_rows, "frame": frame, "input": 100,
                 "hidden": list(HIDDEN), "output": 96, "residual": "geometric prior"}
     return {"type": Q_NETWORKS["relational"], "members": ENSEMBLE_SIZE, "input": 100, "context_rows": context_rows,
             "width": RELATIONAL_WIDTH, "pooling": "max", "output": "sigmoid", "loss": "bce"}
@@ -322,77 +324,6 @@ class RelationalDynamics(nn.Module):
         return 2 * (objects * per_object + sum(_weights(self.rho)))
 
 
-class PriorDynamics(nn.Module):
-    """Dynamics that correct the primitive's own geometry: ŝ′ = p + f(c(s), a/2, c(p) − c(s)).
-
-    ``p`` is the next state the primitive's commanded poses predict
-    (:func:`~t2m_skills_tableenv.geometric_prior.prior_next_rows`: the carried object, the EE and
-    the hook exactly, a swept box moved with the hook's head), encoded like the states. ``c(·)``
-    takes the context rows, the EE's and the skill's arguments' (``context_rows`` of them): the
-    MLP ``(2·12·context_rows + 4) → 256 → 256 → 12·context_rows`` learns what the geometry does not
-    know (settling, sliding, turning against the head) for those rows only. The other objects are
-    the prior's, unchanged: a skill that moves a bystander has failed (``disturbed``), and the
-    dynamics model only successes. The output layer starts at zero, so an untrained network predicts
-    the prior. The prior is computed in float64 numpy and is not differentiated through (planning
-    never needs gradients of the dynamics). ``forward(states (N, 96), actions (N, 4)) -> (N, 96)``,
-    like :class:`Dynamics`.
-    """
-
-    def __init__(self, skill: str, context_rows: int, hidden: tuple[int, ...] = HIDDEN) -> None:
-        super().__init__()
-        from t2m_skills_tableenv.geometric_prior import PRIOR_SKILLS
-
-        if skill not in PRIOR_SKILLS:
-            raise ValueError(f"no geometric prior for skill {skill!r} (known: {', '.join(PRIOR_SKILLS)})")
-        if not 1 <= context_rows < OBSERVATION_ROWS:
-            raise ValueError(f"context_rows must be in [1, {OBSERVATION_ROWS - 1}], got {context_rows}")
-        self.skill, self.context = skill, context_rows * ROW_FEATURES
-        self.net = mlp((2 * self.context + ACTION_DIM, *hidden, self.context))
-        nn.init.zeros_(self.net[-1].weight)
-
-    def prior(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
-        """``(N, 96)`` the encoded geometric prediction for normalised ``states`` and ``actions``."""
-        from t2m_skills_tableenv.geometric_prior import prior_next_rows
-
-        rows = unnormalize(states.detach().cpu().numpy().reshape(-1, OBSERVATION_ROWS, ROW_FEATURES))
-        predicted = normalize(prior_next_rows(self.skill, rows, actions.detach().cpu().numpy()))
-        return torch.from_numpy(predicted.reshape(-1, STATE_DIM)).to(device=states.device, dtype=states.dtype)
-
-    def forward(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
-        prior = self.prior(states, actions)
-        context, predicted = states[:, : self.context], prior[:, : self.context]
-        corrected = predicted + self.net(torch.cat((context, 0.5 * actions, predicted - context), dim=-1))
-        count = corrected.shape[0]
-        rows = corrected.reshape(count, -1, ROW_FEATURES)
-        # a corrected yaw beyond ±π is the same turn: back into the encoding's range
-        rows = torch.cat((rows[..., :YAW_FEATURE], wrapped_yaw(rows[..., YAW_FEATURE : YAW_FEATURE + 1]), rows[..., YAW_FEATURE + 1 :]), dim=-1)
-        return torch.cat((rows.reshape(count, -1), prior[:, self.context :]), dim=-1)
-
-    @staticmethod
-    def loss(predicted: torch.Tensor, targets: torch.Tensor) -> torch.Tensor:
-        """Mean squared error of ``(N, 96)`` encoded states with each row's yaw (the rotation vector's
-        z, feature 5) compared modulo a full turn: an upright object at +179° and one at −179° are 2°
-        apart, not 358° (the rotation vector of a yaw jumps at ±π; in 4–11 % of the successful
-        transitions the recorded next yaw of the moved object or the EE lies across that jump from
-        the prior's)."""
-        difference = (predicted - targets).reshape(predicted.shape[0], -1, ROW_FEATURES)
-        difference = torch.cat(
-            (difference[..., :YAW_FEATURE], wrapped_yaw(difference[..., YAW_FEATURE : YAW_FEATURE + 1]), difference[..., YAW_FEATURE + 1 :]), dim=-1
-        )
-        return difference.square().mean()
-
-    def flops_per_sample(self) -> int:
-        """Floating-point operations (2 × multiply-adds) of the network for one (state, action); the
-        prior's geometry is not counted."""
-        return 2 * sum(_weights(self.net))
-
-
-def wrapped_yaw(normalised: torch.Tensor) -> torch.Tensor:
-    """Normalised yaws (a full turn is 1.0 after :func:`~t2m_core.domain.observation.normalize`)
-    wrapped into [−0.5, 0.5)."""
-    return normalised - torch.floor(normalised + 0.5)
-
-
 def _weights(network: nn.Sequential) -> list[int]:
     return [int(module.weight.numel()) for module in network if isinstance(module, nn.Linear)]
 
@@ -406,13 +337,15 @@ def dynamics_architecture(skill: str, network: str) -> dict[str, Any]:
 
     context_rows = 1 + len(get_primitive(skill).argument_kinds)
     if network == "prior":
-        return {"type": DYNAMICS_NETWORKS["prior"], "skill": skill, "context_rows": context_rows, "input": 100,
+        # a sweep's physics is the same wherever on the table it happens: read it in the action's frame
+        frame = "target" if skill in ("pull", "push") else "world"
+        return {"type": DYNAMICS_NETWORKS["prior"], "skill": skill, "context_rows": context_rows, "frame": frame, "input": 100,
                 "hidden": list(HIDDEN), "output": 96, "residual": "geometric prior"}
     return {"type": DYNAMICS_NETWORKS["relational"], "input": 100, "context_rows": context_rows, "width": RELATIONAL_WIDTH,
             "hidden": list(HIDDEN), "pooling": "max", "output": 96, "residual": True}
 
 
-def build_dynamics(architecture: dict[str, Any]) -> Dynamics | RelationalDynamics | PriorDynamics:
+def build_dynamics(architecture: dict[str, Any]) -> nn.Module:
     """A fresh dynamics model as ``architecture`` (a checkpoint's ``models.dynamics.architecture``)
     describes it.
 
@@ -426,5 +359,7 @@ def build_dynamics(architecture: dict[str, Any]) -> Dynamics | RelationalDynamic
     if kind == DYNAMICS_NETWORKS["relational"]:
         return RelationalDynamics(int(architecture["context_rows"]), width=int(architecture.get("width", RELATIONAL_WIDTH)), hidden=hidden)
     if kind == DYNAMICS_NETWORKS["prior"]:
-        return PriorDynamics(str(architecture["skill"]), int(architecture["context_rows"]), hidden=hidden)
+        from t2m_skills_tableenv.prior_dynamics import PriorDynamics
+
+        return PriorDynamics(str(architecture["skill"]), int(architecture["context_rows"]), frame=str(architecture.get("frame", "world")), hidden=hidden)
     raise ValueError(f"unknown dynamics type {kind!r} (known: {', '.join(DYNAMICS_NETWORKS.values())})")

@@ -14,7 +14,8 @@ from t2m_core.domain.primitives import PRIMITIVES
 from t2m_core.domain.state import ObjectPose
 from t2m_skills_tableenv.checkpoints import load_dynamics, save_weights, update_config
 from t2m_skills_tableenv.geometric_prior import prior_next_rows
-from t2m_skills_tableenv.networks import PriorDynamics, build_dynamics, dynamics_architecture
+from t2m_skills_tableenv.networks import build_dynamics, dynamics_architecture
+from t2m_skills_tableenv.prior_dynamics import PriorDynamics
 from t2m_skills_tableenv.training import WEIGHT_FILES
 from tests.domain.scenes import RACK_BEYOND, on_table, scene
 from tests.plugins.t2m_skills_tableenv.rows import EMPTY, rows
