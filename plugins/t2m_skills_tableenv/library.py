@@ -12,12 +12,13 @@ from typing import Any
 
 import numpy as np
 import torch
+from torch import nn
 
 from t2m_core.data.scenes import DATA_SKILLS
 from t2m_core.ood import members_variance
 from t2m_core.protocols import Batch
 from t2m_skills_tableenv.checkpoints import CheckpointError, load_dynamics, load_q, load_weights, read_config
-from t2m_skills_tableenv.networks import Dynamics, GaussianPolicy, QEnsemble, RelationalDynamics, RelationalQEnsemble
+from t2m_skills_tableenv.networks import GaussianPolicy, QEnsemble, RelationalQEnsemble
 from t2m_skills_tableenv.options import TableEnvSkillsOptions
 from t2m_skills_tableenv.training import WEIGHT_FILES
 
@@ -39,7 +40,7 @@ class TableEnvSkill:
     action_dim = 4
 
     def __init__(
-        self, name: str, q_ensemble: QEnsemble | RelationalQEnsemble, policy: GaussianPolicy, dynamics: Dynamics | RelationalDynamics, config: dict[str, Any],
+        self, name: str, q_ensemble: QEnsemble | RelationalQEnsemble, policy: GaussianPolicy, dynamics: nn.Module, config: dict[str, Any],
         detector: QEnsemble | RelationalQEnsemble | None = None, detector_config: dict[str, Any] | None = None,
         detector_directory: Path | None = None,
     ) -> None:

@@ -17,6 +17,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -34,6 +35,9 @@ RELATIONAL_WIDTH = 128
 """Width of the relational Q-ensemble's layers."""
 Q_NETWORKS: dict[str, str] = {"mlp": "QEnsemble", "relational": "RelationalQEnsemble"}
 """``t2m train --q-network`` name -> the architecture ``type`` a checkpoint's config records."""
+DynamicsModel = Callable[[torch.Tensor, torch.Tensor], torch.Tensor]
+"""A dynamics network as the library calls it: ``(states (N, 96), actions (N, 4)) -> (N, 96)``
+(:class:`Dynamics`, :class:`RelationalDynamics` or ``prior_dynamics.PriorDynamics``)."""
 DYNAMICS_NETWORKS: dict[str, str] = {"mlp": "Dynamics", "relational": "RelationalDynamics", "prior": "PriorDynamics"}
 """``t2m train --dynamics-network`` name -> the architecture ``type`` a checkpoint's config records."""
 LOG_STD_MIN, LOG_STD_MAX = -5.0, 2.0

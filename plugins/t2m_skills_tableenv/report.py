@@ -24,7 +24,7 @@ from t2m_core.domain.observation import RowOrder, decode_dynamics_prediction
 from t2m_skills_tableenv.dataset import SkillTensors
 from t2m_skills_tableenv.episodes import REPORT_SEED, policy_success
 from t2m_skills_tableenv.library import load_library
-from t2m_skills_tableenv.networks import Dynamics, RelationalDynamics
+from t2m_skills_tableenv.networks import DynamicsModel
 from t2m_skills_tableenv.options import TableEnvSkillsOptions
 from t2m_skills_tableenv.training import q_metrics
 
@@ -66,7 +66,7 @@ def errors_by_outcome(q_min: np.ndarray, failures: Sequence[str | None]) -> dict
 
 
 @torch.no_grad()
-def dynamics_errors(dynamics: Dynamics | RelationalDynamics, data: SkillTensors, row_orders: np.ndarray, shuffle_ranges: np.ndarray, observations: np.ndarray, next_observations: np.ndarray) -> dict[str, float]:
+def dynamics_errors(dynamics: DynamicsModel, data: SkillTensors, row_orders: np.ndarray, shuffle_ranges: np.ndarray, observations: np.ndarray, next_observations: np.ndarray) -> dict[str, float]:
     """Median and 90th-percentile position (mm) and yaw (degrees) errors of the decoded dynamics
     prediction against the true next observation, for the moved object (the first argument) and
     for the other present objects."""
