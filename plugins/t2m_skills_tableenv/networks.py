@@ -43,7 +43,6 @@ DYNAMICS_NETWORKS: dict[str, str] = {"mlp": "Dynamics", "relational": "Relationa
 LOG_STD_MIN, LOG_STD_MAX = -5.0, 2.0
 
 
-
 class QEnsemble(nn.Module):
     """``members`` MLPs ``(96 + 4) → 256 → 256 → 1`` with stacked weights.
 
@@ -179,11 +178,6 @@ def q_architecture(skill: str, network: str) -> dict[str, Any]:
     from t2m_core.domain.primitives import get_primitive
 
     context_rows = 1 + len(get_primitive(skill).argument_kinds)
-    if network == "prior":
-        # a sweep's physics is the same wherever on the table it happens: read it in the action's frame
-        frame = "target" if skill in ("pull", "push") else "world"
-        return {"type": DYNAMICS_NETWORKS["prior"], "skill": skill, "context_rows": context_rows, "frame": frame, "input": 100,
-                "hidden": list(HIDDEN), "output": 96, "residual": "geometric prior"}
     return {"type": Q_NETWORKS["relational"], "members": ENSEMBLE_SIZE, "input": 100, "context_rows": context_rows,
             "width": RELATIONAL_WIDTH, "pooling": "max", "output": "sigmoid", "loss": "bce"}
 
@@ -333,8 +327,9 @@ def _weights(network: nn.Sequential) -> list[int]:
 
 
 def dynamics_architecture(skill: str, network: str) -> dict[str, Any]:
-    """The ``config.json`` architecture of ``skill``'s dynamics model of kind ``network`` (``"mlp"``
-    or ``"relational"``; the relational model's context is the end effector and the skill's arguments)."""
+    """The ``config.json`` architecture of ``skill``'s dynamics model of kind ``network`` (``"mlp"``,
+    ``"relational"`` or ``"prior"``; the relational and prior models' context is the end effector and
+    the skill's arguments, the prior model's frame the box's polar frame for Pull and Push)."""
     if network == "mlp":
         return {"type": DYNAMICS_NETWORKS["mlp"], "input": 100, "hidden": list(HIDDEN), "output": 96, "residual": True}
     from t2m_core.domain.primitives import get_primitive
