@@ -25,11 +25,12 @@ from collections.abc import Callable
 
 import numpy as np
 
-from t2m_core.domain.constants import MAX_LIFT_HEIGHT, TABLE_PLACE_X_RANGE, TABLE_Y_MAX, TABLE_Y_MIN
+from t2m_core.domain.constants import MAX_LIFT_HEIGHT
 from t2m_core.domain.geometry import axis_angle_to_quat, quat_yaw, rotate, wrap_angle, yaw_to_quat, yawed_footprints, yawed_polygons
 from t2m_core.domain.objects import object_spec
 from t2m_core.domain.primitives import PRIMITIVES
 from t2m_core.domain.primitives.hook_sweep import batched_sweep_poses
+from t2m_core.domain.primitives.place import place_rectangle
 from t2m_core.domain.primitives.sweep_screen import HEAD, target_shifts
 
 HOOK = "hook"
@@ -38,7 +39,7 @@ _HOOK_FEATURE = 9
 _ZERO = 1e-5
 """Raw features below this are zero (rows pass through normalisation and back)."""
 _CORNER_SIGNS = np.array([(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)])
-_TABLE_RECTANGLE = np.array([[TABLE_PLACE_X_RANGE[0], TABLE_Y_MIN], [TABLE_PLACE_X_RANGE[1], TABLE_Y_MAX]])
+_TABLE_RECTANGLE = place_rectangle("table")
 
 
 def prior_next_rows(skill: str, rows: np.ndarray, actions: np.ndarray) -> np.ndarray:
