@@ -30,7 +30,7 @@ from t2m_core.domain.geometry import axis_angle_to_quat, quat_yaw, rotate, wrap_
 from t2m_core.domain.objects import object_spec
 from t2m_core.domain.primitives import PRIMITIVES
 from t2m_core.domain.primitives.hook_sweep import batched_sweep_poses
-from t2m_core.domain.primitives.place import place_rectangle
+from t2m_core.domain.primitives.place import carried_poses, place_rectangle
 from t2m_core.domain.primitives.sweep_screen import HEAD, target_shifts
 
 HOOK = "hook"
@@ -84,11 +84,9 @@ def _place(rows: np.ndarray, physical: np.ndarray) -> np.ndarray:
     target_yaw = _yaw(target)
     release = target[:, :3] + rotate(yaw_to_quat(target_yaw), np.column_stack((local_xy, physical[:, 2])))
     release_yaw = target_yaw + physical[:, 3]
-    ee_yaw = _yaw(ee)
-    in_hand = rotate(yaw_to_quat(-ee_yaw), obj[:, :3] - ee[:, :3])
-    carried = release + rotate(yaw_to_quat(release_yaw), in_hand)
+    carried, carried_yaw = carried_poses(ee[:, :3], _yaw(ee), obj[:, :3], _yaw(obj), release, release_yaw)
     carried[:, 2] = target[:, 2] + _half_height(obj)
-    _set_pose(following[:, 1], carried, release_yaw + _yaw(obj) - ee_yaw)
+    _set_pose(following[:, 1], carried, carried_yaw)
     _set_pose(following[:, 0], _at_lift_height(release), release_yaw)
     return following
 

@@ -67,6 +67,18 @@ def release_poses(state: GeometricState, target: str, physical: np.ndarray) -> t
     return positions, wrap_angle(quat_yaw(pose.quaternion) + physical[:, 3])
 
 
+def carried_poses(
+    ee_position: np.ndarray, ee_yaw: float | np.ndarray, held_position: np.ndarray, held_yaw: float | np.ndarray,
+    release: np.ndarray, release_yaw: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Where an object held rigidly by the EE is when the EE reaches ``release`` yawed ``release_yaw``:
+    ``((..., 3) positions in metres, (...) yaws in radians)``, broadcast over leading axes, from the
+    EE's and the object's ``(..., 3)`` positions and yaws now (the EE's relative to home)."""
+    ee_yaw = np.asarray(ee_yaw, dtype=np.float64)
+    in_hand = rotate(yaw_to_quat(-ee_yaw), np.asarray(held_position, dtype=np.float64) - ee_position)
+    return release + rotate(yaw_to_quat(release_yaw), in_hand), release_yaw + (held_yaw - ee_yaw)
+
+
 class Place(Primitive):
     """Release the held ``obj`` above ``target``.
 
@@ -99,12 +111,9 @@ class Place(Primitive):
         if len(obstacles) == 0:
             return np.zeros(len(physical), dtype=bool)
         release, release_yaw = release_poses(state, target, physical)
-        ee_yaw = float(quat_yaw(state.ee_quaternion))
         held = state.objects[obj]
-        offset = rotate(yaw_to_quat(-ee_yaw), held.position - state.ee_position)[:2]
-        cos, sin = np.cos(release_yaw), np.sin(release_yaw)
-        positions = release[:, :2] + np.column_stack((cos * offset[0] - sin * offset[1], sin * offset[0] + cos * offset[1]))
-        yaws = release_yaw + (float(quat_yaw(held.quaternion)) - ee_yaw)
+        positions, yaws = carried_poses(state.ee_position, quat_yaw(state.ee_quaternion), held.position, quat_yaw(held.quaternion), release, release_yaw)
+        positions = positions[:, :2]
         footprints = yawed_footprints(object_spec(obj), np.column_stack((positions, release[:, 2])), yaws)  # (B, P, 4, 2)
         fingers = finger_footprints(release, release_yaw, held_opening(state, obj))
         struck = fingers_strike(state, arguments, fingers, release[:, 2] - FINGERTIP_BELOW_EE)
