@@ -5,6 +5,9 @@
   ``baddbmm`` per layer for all members; no Python loop over members).
 - :class:`RelationalQEnsemble`: the same ensemble with a permutation-invariant reading of the
   non-argument objects (docs/guide/skills.md#relational-q-ensemble), an option of ``t2m train``.
+- :class:`~t2m_skills_tableenv.screened_q.ScreenedQEnsemble` (its own module): the MLP ensemble that
+  also reads the primitive's geometric screen (docs/guide/skills.md#screened-q-ensemble), an option
+  of ``t2m train``.
 - :class:`GaussianPolicy`: a tanh-squashed diagonal Gaussian; the deterministic action is tanh(μ).
 - :class:`Dynamics`: a residual MLP on the 96-D dynamics state.
 - :class:`RelationalDynamics`: the same residual prediction with the non-argument objects read as a
@@ -33,7 +36,7 @@ HIDDEN = (256, 256)
 ENSEMBLE_SIZE = 8
 RELATIONAL_WIDTH = 128
 """Width of the relational Q-ensemble's layers."""
-Q_NETWORKS: dict[str, str] = {"mlp": "QEnsemble", "relational": "RelationalQEnsemble"}
+Q_NETWORKS: dict[str, str] = {"mlp": "QEnsemble", "relational": "RelationalQEnsemble", "screened": "ScreenedQEnsemble"}
 """``t2m train --q-network`` name -> the architecture ``type`` a checkpoint's config records."""
 DynamicsModel = Callable[[torch.Tensor, torch.Tensor], torch.Tensor]
 """A dynamics network as the library calls it: ``(states (N, 96), actions (N, 4)) -> (N, 96)``
@@ -50,9 +53,9 @@ class QEnsemble(nn.Module):
     their sigmoids.
     """
 
-    def __init__(self, members: int = ENSEMBLE_SIZE, hidden: tuple[int, ...] = HIDDEN) -> None:
+    def __init__(self, members: int = ENSEMBLE_SIZE, hidden: tuple[int, ...] = HIDDEN, extra_inputs: int = 0) -> None:
         super().__init__()
-        sizes = (STATE_DIM + ACTION_DIM, *hidden, 1)
+        sizes = (STATE_DIM + ACTION_DIM + extra_inputs, *hidden, 1)
         self.members = members
         self.weights = nn.ParameterList()
         self.biases = nn.ParameterList()
@@ -66,7 +69,10 @@ class QEnsemble(nn.Module):
     def forward(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
         """Logits ``(N, B)``. ``states (N, 96)`` and ``actions (N, 4)`` go to every member;
         ``(B, N, 96)`` and ``(B, N, 4)`` give each member its own inputs (bootstrapped training)."""
-        x = torch.cat((states, actions), dim=-1)
+        return self._logits(torch.cat((states, actions), dim=-1))
+
+    def _logits(self, x: torch.Tensor) -> torch.Tensor:
+        """Logits ``(N, B)`` of ``(N, inputs)`` or ``(B, N, inputs)`` inputs."""
         if x.dim() == 2:
             x = x.unsqueeze(0).expand(self.members, -1, -1)
         last = len(self.weights) - 1
@@ -171,10 +177,14 @@ class RelationalQEnsemble(nn.Module):
 
 
 def q_architecture(skill: str, network: str) -> dict[str, Any]:
-    """The ``config.json`` architecture of ``skill``'s Q-ensemble of kind ``network`` (``"mlp"`` or
-    ``"relational"``; the relational network's context is the end effector and the skill's arguments)."""
+    """The ``config.json`` architecture of ``skill``'s Q-ensemble of kind ``network`` (``"mlp"``,
+    ``"relational"`` or ``"screened"``; the relational network's context is the end effector and the
+    skill's arguments, the screened network's extra input the skill's geometric screen)."""
     if network == "mlp":
         return {"type": Q_NETWORKS["mlp"], "members": ENSEMBLE_SIZE, "input": 100, "hidden": list(HIDDEN), "output": "sigmoid", "loss": "bce"}
+    if network == "screened":
+        return {"type": Q_NETWORKS["screened"], "skill": skill, "members": ENSEMBLE_SIZE, "input": 101, "hidden": list(HIDDEN),
+                "screen": "in_the_way", "output": "sigmoid", "loss": "bce"}
     from t2m_core.domain.primitives import get_primitive
 
     context_rows = 1 + len(get_primitive(skill).argument_kinds)
@@ -194,6 +204,10 @@ def build_q(architecture: dict[str, Any]) -> QEnsemble | RelationalQEnsemble:
         return QEnsemble(members=members, hidden=tuple(architecture.get("hidden", HIDDEN)))
     if kind == Q_NETWORKS["relational"]:
         return RelationalQEnsemble(int(architecture["context_rows"]), members=members, width=int(architecture.get("width", RELATIONAL_WIDTH)))
+    if kind == Q_NETWORKS["screened"]:
+        from t2m_skills_tableenv.screened_q import ScreenedQEnsemble
+
+        return ScreenedQEnsemble(str(architecture["skill"]), members=members, hidden=tuple(architecture.get("hidden", HIDDEN)))
     raise ValueError(f"unknown Q-ensemble type {kind!r} (known: {', '.join(Q_NETWORKS.values())})")
 
 

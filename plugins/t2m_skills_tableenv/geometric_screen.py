@@ -1,0 +1,79 @@
+"""The primitives' geometric screen as an input of the Q-ensemble (docs/guide/skills.md#screened-q-ensemble).
+
+Each primitive predicts from the domain's geometry alone whether an action drives the gripper, the
+hook or the carried object into another object (``in_the_way``: for Pick, an open finger coming down
+on a part of a bystander that rises above the fingertips). :func:`screen_flags` evaluates that
+prediction for skill states as the networks see them: raw argument-first rows, the objects
+identified by their shape features (every object of the world has its own), so that a Q-ensemble can
+read it beside the state and the action without knowing the objects' names.
+
+A prediction, not a label: on the data scenes' 5 000 Pick validation transitions it flags 97 % of the
+collisions, 54 % of the picks that disturb a neighbour and 3.5 % of the successes, so the ensemble
+learns how far to trust it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from t2m_core.domain.objects import OBJECTS, ObjectKind
+from t2m_core.domain.observation import FEATURES, OBSERVATION_ROWS, STATIC_FEATURES, decode_observation
+from t2m_core.domain.primitives import PRIMITIVES
+
+SCREEN_SKILLS = ("pick",)
+"""Skills whose Q-ensemble can read the screen (``t2m train --q-network screened``)."""
+_NAMES = tuple(name for name, spec in OBJECTS.items() if spec.kind is not ObjectKind.TABLE)
+_SHAPES = np.array([OBJECTS[name].shape_features() for name in _NAMES], dtype=np.float64)  # (objects, 6)
+_SHAPE_TOLERANCE = 1e-4
+"""Raw shape features this close identify an object (they pass through normalisation and back)."""
+_ZERO = 1e-5
+
+
+def row_objects(rows: np.ndarray) -> tuple[str | None, ...]:
+    """The object of each of the 7 object rows of one raw ``(8, 12)`` state, by its shape features:
+    a name, ``"table"`` for the first all-zero row (the table's row carries nothing), ``None`` for
+    the other all-zero rows (empty slots).
+
+    Raises:
+        ValueError: a row whose shape features match no object of the world.
+    """
+    objects = np.asarray(rows, dtype=np.float64)[1:]
+    empty = np.all(np.abs(objects) < _ZERO, axis=-1)  # (7,)
+    matches = np.all(np.abs(objects[:, None, STATIC_FEATURES] - _SHAPES) < _SHAPE_TOLERANCE, axis=-1)  # (7, objects)
+    unknown = ~empty & ~matches.any(axis=-1)
+    if unknown.any():
+        shape = objects[int(np.argmax(unknown)), STATIC_FEATURES]
+        raise ValueError(f"a row's shape features {np.round(shape, 4).tolist()} match no object of the world")
+    names: list[str | None] = [None if is_empty else _NAMES[int(np.argmax(match))] for is_empty, match in zip(empty, matches, strict=True)]
+    if empty.any():
+        names[int(np.argmax(empty))] = "table"  # the first all-zero row
+    return tuple(names)
+
+
+def screen_flags(skill: str, rows: np.ndarray, actions: np.ndarray) -> np.ndarray:
+    """``(N,)`` bool: whether the primitive's geometry predicts each action to drive something into
+    another object (its ``in_the_way``), for ``(N, 8, 12)`` raw argument-first rows (row 0 the EE,
+    then the skill's arguments) and ``(N, 4)`` normalised actions. States that repeat (a planner
+    ranking many actions in one state) are decoded once and screened in one batch.
+
+    Raises:
+        KeyError: a skill without a screen.
+    """
+    if skill not in SCREEN_SKILLS:
+        raise KeyError(f"no geometric screen for skill {skill!r} (known: {', '.join(SCREEN_SKILLS)})")
+    primitive = PRIMITIVES[skill]
+    rows = np.asarray(rows, dtype=np.float64).reshape(-1, OBSERVATION_ROWS, FEATURES)
+    physical = primitive.to_physical(np.asarray(actions, dtype=np.float64).reshape(len(rows), -1))
+    arity = len(primitive.argument_kinds)
+    unique, inverse = np.unique(rows.reshape(len(rows), -1), axis=0, return_inverse=True)
+    flags = np.zeros(len(rows), dtype=bool)
+    for index, state_rows in enumerate(unique.reshape(-1, OBSERVATION_ROWS, FEATURES)):
+        names = row_objects(state_rows)
+        present = [row for row, name in enumerate(names, start=1) if name is not None]
+        observation = np.zeros((OBSERVATION_ROWS, FEATURES))
+        observation[0] = state_rows[0]
+        observation[1 : 1 + len(present)] = state_rows[present]
+        state = decode_observation(observation, [names[row - 1] for row in present])
+        mine = np.flatnonzero(inverse.reshape(-1) == index)
+        flags[mine] = primitive.in_the_way(state, names[:arity], physical[mine])
+    return flags

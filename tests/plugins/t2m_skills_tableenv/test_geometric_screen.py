@@ -1,0 +1,141 @@
+"""The geometric screen read from skill states, and the Q-ensemble that reads it
+(docs/guide/skills.md#screened-q-ensemble): neighbours placed by hand, rows as the networks see
+them, training and checkpoints."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from t2m_core.domain.observation import argument_first_order, encode_observation, normalize, unnormalize
+from t2m_core.domain.primitives import PRIMITIVES
+from t2m_core.errors import T2MError
+from t2m_skills_tableenv.checkpoints import load_q, save_weights, update_config
+from t2m_skills_tableenv.geometric_screen import row_objects, screen_flags
+from t2m_skills_tableenv.networks import build_q, q_architecture
+from t2m_skills_tableenv.screened_q import ScreenedQEnsemble
+from tests.domain.scenes import RACK_IN_WORKSPACE, on_table, scene
+
+PICK = PRIMITIVES["pick"]
+ACROSS_Y, ACROSS_X = [0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, math.pi / 2]
+"""Physical grasps at the box's centre, the jaw opening along world y (θ = 0) or x (θ = π/2)."""
+
+
+def neighbour_scene(gap: float):
+    """The red box at (0.5, 0.1) and the blue box along +y, ``gap`` m beyond the reach of a finger
+    opened along y (66.4 mm from the grasp; the blue box's near face 25 mm from its centre), with
+    the rack and the hook far from both."""
+    return scene(
+        rack=RACK_IN_WORKSPACE, hook=on_table("hook", 0.3, -0.1), red_box=on_table("red_box", 0.5, 0.1),
+        blue_box=on_table("blue_box", 0.5, 0.1 + 0.0664 + 0.025 + gap),
+    )
+
+
+def skill_rows(state, arguments, permutation=None) -> np.ndarray:
+    """``(1, 8, 12)`` raw argument-first rows of ``state`` as a network sees them (normalised and
+    back), the non-argument rows optionally permuted."""
+    order = argument_first_order(list(state.objects), arguments).order.copy()
+    if permutation is not None:
+        start = 1 + len(arguments)
+        order[start : start + len(permutation)] = order[start:][list(permutation)]
+    return unnormalize(normalize(encode_observation(state)[order]))[None].astype(np.float64)
+
+
+def actions_of(*physical) -> np.ndarray:
+    return PICK.to_normalized(np.array(physical, dtype=np.float64))
+
+
+def test_rows_name_every_object_by_its_shape() -> None:
+    state = neighbour_scene(0.05)
+    rows = skill_rows(state, ["red_box"])[0]
+    # argument first, then the others in task order; the table's all-zero row, then an empty slot
+    assert row_objects(rows) == ("red_box", "table", "rack", "hook", "blue_box", None, None)
+
+
+def test_the_screen_sees_a_neighbour_along_the_jaw_from_the_rows() -> None:
+    actions = actions_of(ACROSS_Y, ACROSS_X)
+    near, clear = neighbour_scene(0.003), neighbour_scene(0.008)
+    assert screen_flags("pick", np.repeat(skill_rows(near, ["red_box"]), 2, axis=0), actions).tolist() == [True, False]
+    assert screen_flags("pick", np.repeat(skill_rows(clear, ["red_box"]), 2, axis=0), actions).tolist() == [False, False]
+    # the other objects' order does not matter, and distinct states in one batch are screened apart
+    shuffled = skill_rows(near, ["red_box"], permutation=(3, 1, 0, 2))
+    mixed = np.concatenate((shuffled, skill_rows(clear, ["red_box"]), shuffled))
+    assert screen_flags("pick", mixed, actions_of(ACROSS_Y, ACROSS_Y, ACROSS_X)).tolist() == [True, False, False]
+
+
+def test_an_unknown_shape_or_skill_is_named() -> None:
+    rows = skill_rows(neighbour_scene(0.05), ["red_box"])
+    rows[0, 4, 8] = 0.09  # the blue box 9 cm tall: no object of the world
+    with pytest.raises(ValueError, match="match no object of the world"):
+        screen_flags("pick", rows, actions_of(ACROSS_Y))
+    with pytest.raises(KeyError, match="no geometric screen for skill 'push'"):
+        screen_flags("push", rows, actions_of(ACROSS_Y))
+    with pytest.raises(ValueError, match="no geometric screen for skill 'push'"):
+        ScreenedQEnsemble("push")
+
+
+def states_and_actions(count: int, seed: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """Normalised skill states of the neighbour scene at gaps in [0, 1.2 cm] and grasps at θ = 0 or π/2."""
+    rng = np.random.default_rng(seed)
+    gaps, across_x = rng.uniform(0.0, 0.012, count), rng.random(count) < 0.5
+    rows = np.concatenate([normalize(skill_rows(neighbour_scene(g), ["red_box"])) for g in gaps])
+    actions = actions_of(*[ACROSS_X if x else ACROSS_Y for x in across_x])
+    return torch.from_numpy(rows.reshape(count, 96)).float(), torch.from_numpy(actions).float()
+
+
+def test_a_screened_ensemble_reads_the_screen_it_computes_or_is_given() -> None:
+    torch.manual_seed(0)
+    network = ScreenedQEnsemble("pick")
+    states, actions = states_and_actions(16, 0)
+    computed = network.screen(states, actions)
+    assert computed.any() and not computed.all()
+    torch.testing.assert_close(network(states, actions), network(states, actions, computed), rtol=0, atol=0)
+    assert not torch.allclose(network(states, actions, computed), network(states, actions, ~computed))
+    # member-specific inputs (bootstrapped batches) take a screen per member
+    members = network(states.expand(8, -1, -1), actions.expand(8, -1, -1), computed.expand(8, -1))
+    torch.testing.assert_close(members, network(states, actions, computed))
+
+
+def test_training_learns_what_the_screen_predicts(tmp_path) -> None:
+    """Labels that follow the hand-placed geometry (a grasp along the jaw fails when the neighbour
+    stands within 5 mm of a finger); the ensemble learns them through the precomputed screen."""
+    from t2m_skills_tableenv.dataset import SkillTensors
+    from t2m_skills_tableenv.training import QStage, StageSettings, q_metrics, run_stage
+
+    def problem(count: int, seed: int) -> SkillTensors:
+        states, actions = states_and_actions(count, seed)
+        rng = np.random.default_rng(seed)
+        gaps, across_x = rng.uniform(0.0, 0.012, count), rng.random(count) < 0.5
+        rewards = torch.from_numpy((across_x | (gaps > 0.005)).astype(np.float32))
+        return SkillTensors(states.reshape(count, 8, 12), states.reshape(count, 8, 12), torch.tensor([[2, 5]]).expand(count, 2), actions, rewards)
+
+    train, validation = problem(256, 1), problem(128, 2)
+    torch.manual_seed(0)
+    settings = StageSettings(steps=300, batch_size=64, learning_rate=1e-3, eval_every=100, q_network="screened")
+    stage = QStage(train, validation, settings, ScreenedQEnsemble("pick"))
+    run_stage(stage, settings, tmp_path)
+    metrics = q_metrics(stage.network, validation)
+    assert metrics["accuracy"] > 0.95, metrics
+
+
+def test_a_screened_checkpoint_round_trips_and_other_skills_are_refused(tmp_path) -> None:
+    architecture = q_architecture("pick", "screened")
+    assert architecture["input"] == 101 and architecture["skill"] == "pick"
+    torch.manual_seed(1)
+    network = build_q(architecture)
+    save_weights(tmp_path / "q_ensemble.safetensors", network)
+    update_config(tmp_path, skill="pick", models={"q": {"file": "q_ensemble.safetensors", "architecture": architecture}})
+    loaded = load_q(tmp_path)
+    assert isinstance(loaded, ScreenedQEnsemble)
+    states, actions = states_and_actions(4, 3)
+    torch.testing.assert_close(loaded(states, actions), network(states, actions), rtol=0, atol=0)
+
+
+def test_training_a_screened_ensemble_for_a_skill_without_a_screen_is_refused(tmp_path) -> None:
+    from t2m_skills_tableenv.training import train_skill
+
+    with pytest.raises(T2MError, match="no geometric screen for push's Q-ensemble"):
+        train_skill("push", ("q",), tmp_path / "data", tmp_path / "out", {"q_network": "screened"})
