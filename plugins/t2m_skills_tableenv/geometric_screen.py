@@ -1,4 +1,4 @@
-"""The primitives' geometric screen as an input of the Q-ensemble (docs/guide/skills.md#screened-q-ensemble).
+"""The primitives' geometric screen as an input of the Q-ensemble (docs/guide/skills.md#geometric-q-ensemble).
 
 Each primitive predicts from the domain's geometry alone whether an action drives the gripper, the
 hook or the carried object into another object (``in_the_way``: for Pick, an open finger coming down
@@ -21,7 +21,7 @@ from t2m_core.domain.observation import FEATURES, OBSERVATION_ROWS, STATIC_FEATU
 from t2m_core.domain.primitives import PRIMITIVES
 
 SCREEN_SKILLS = ("pick",)
-"""Skills whose Q-ensemble can read the screen (``t2m train --q-network screened``)."""
+"""Skills whose Q-ensemble can read the screen (``t2m train --q-network geometric``)."""
 _NAMES = tuple(name for name, spec in OBJECTS.items() if spec.kind is not ObjectKind.TABLE)
 _SHAPES = np.array([OBJECTS[name].shape_features() for name in _NAMES], dtype=np.float64)  # (objects, 6)
 _SHAPE_TOLERANCE = 1e-4

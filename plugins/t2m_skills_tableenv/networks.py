@@ -5,8 +5,8 @@
   ``baddbmm`` per layer for all members; no Python loop over members).
 - :class:`RelationalQEnsemble`: the same ensemble with a permutation-invariant reading of the
   non-argument objects (docs/guide/skills.md#relational-q-ensemble), an option of ``t2m train``.
-- :class:`~t2m_skills_tableenv.screened_q.ScreenedQEnsemble` (its own module): the MLP ensemble that
-  also reads the primitive's geometric screen (docs/guide/skills.md#screened-q-ensemble), an option
+- :class:`~t2m_skills_tableenv.geometric_q.GeometricQEnsemble` (its own module): the MLP ensemble that
+  also reads the primitive's geometric screen (docs/guide/skills.md#geometric-q-ensemble), an option
   of ``t2m train``.
 - :class:`GaussianPolicy`: a tanh-squashed diagonal Gaussian; the deterministic action is tanh(μ).
 - :class:`Dynamics`: a residual MLP on the 96-D dynamics state.
@@ -36,7 +36,7 @@ HIDDEN = (256, 256)
 ENSEMBLE_SIZE = 8
 RELATIONAL_WIDTH = 128
 """Width of the relational Q-ensemble's layers."""
-Q_NETWORKS: dict[str, str] = {"mlp": "QEnsemble", "relational": "RelationalQEnsemble", "screened": "ScreenedQEnsemble"}
+Q_NETWORKS: dict[str, str] = {"mlp": "QEnsemble", "relational": "RelationalQEnsemble", "geometric": "GeometricQEnsemble"}
 """``t2m train --q-network`` name -> the architecture ``type`` a checkpoint's config records."""
 DynamicsModel = Callable[[torch.Tensor, torch.Tensor], torch.Tensor]
 """A dynamics network as the library calls it: ``(states (N, 96), actions (N, 4)) -> (N, 96)``
@@ -178,12 +178,12 @@ class RelationalQEnsemble(nn.Module):
 
 def q_architecture(skill: str, network: str) -> dict[str, Any]:
     """The ``config.json`` architecture of ``skill``'s Q-ensemble of kind ``network`` (``"mlp"``,
-    ``"relational"`` or ``"screened"``; the relational network's context is the end effector and the
-    skill's arguments, the screened network's extra input the skill's geometric screen)."""
+    ``"relational"`` or ``"geometric"``; the relational network's context is the end effector and the
+    skill's arguments, the geometric network's extra input the skill's geometric screen)."""
     if network == "mlp":
         return {"type": Q_NETWORKS["mlp"], "members": ENSEMBLE_SIZE, "input": 100, "hidden": list(HIDDEN), "output": "sigmoid", "loss": "bce"}
-    if network == "screened":
-        return {"type": Q_NETWORKS["screened"], "skill": skill, "members": ENSEMBLE_SIZE, "input": 101, "hidden": list(HIDDEN),
+    if network == "geometric":
+        return {"type": Q_NETWORKS["geometric"], "skill": skill, "members": ENSEMBLE_SIZE, "input": 101, "hidden": list(HIDDEN),
                 "screen": "in_the_way", "output": "sigmoid", "loss": "bce"}
     from t2m_core.domain.primitives import get_primitive
 
@@ -204,10 +204,10 @@ def build_q(architecture: dict[str, Any]) -> QEnsemble | RelationalQEnsemble:
         return QEnsemble(members=members, hidden=tuple(architecture.get("hidden", HIDDEN)))
     if kind == Q_NETWORKS["relational"]:
         return RelationalQEnsemble(int(architecture["context_rows"]), members=members, width=int(architecture.get("width", RELATIONAL_WIDTH)))
-    if kind == Q_NETWORKS["screened"]:
-        from t2m_skills_tableenv.screened_q import ScreenedQEnsemble
+    if kind == Q_NETWORKS["geometric"]:
+        from t2m_skills_tableenv.geometric_q import GeometricQEnsemble
 
-        return ScreenedQEnsemble(str(architecture["skill"]), members=members, hidden=tuple(architecture.get("hidden", HIDDEN)))
+        return GeometricQEnsemble(str(architecture["skill"]), members=members, hidden=tuple(architecture.get("hidden", HIDDEN)))
     raise ValueError(f"unknown Q-ensemble type {kind!r} (known: {', '.join(Q_NETWORKS.values())})")
 
 

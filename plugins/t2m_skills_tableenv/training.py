@@ -70,11 +70,11 @@ class StageSettings(BaseModel):
     exposure_weight: float = Field(
         1.0, ge=0, description="Q-ensemble only, with OOD exposure data: weight of the exposure loss against the labelled loss"
     )
-    q_network: Literal["mlp", "relational", "screened"] = Field(
+    q_network: Literal["mlp", "relational", "geometric"] = Field(
         "mlp",
         description="Q-ensemble only: the published MLP, the relational network that reads the other objects "
         "as a set (docs/guide/skills.md#relational-q-ensemble), or the MLP that also reads the primitive's "
-        "geometric screen (docs/guide/skills.md#screened-q-ensemble)",
+        "geometric screen (docs/guide/skills.md#geometric-q-ensemble)",
     )
     dynamics_network: Literal["mlp", "relational", "prior"] = Field(
         "mlp",
@@ -219,7 +219,7 @@ class QStage(Stage):
             self.resample = torch.randint(len(train), (self.network.members, len(train)), generator=generator)
         self.optimizer = torch.optim.Adam(self.network.parameters(), lr=settings.learning_rate)
         self.schedule = torch.optim.lr_scheduler.CosineAnnealingLR(self.optimizer, T_max=settings.steps, eta_min=0.0)
-        # a screened ensemble's geometric screen of the stored pairs, computed once (row order does not change it)
+        # a geometric ensemble's geometric screen of the stored pairs, computed once (row order does not change it)
         self.train_screen, self.validation_screen = data_screen(self.network, train), data_screen(self.network, validation)
 
     @property
@@ -434,21 +434,21 @@ class DynamicsStage(Stage):
 
 
 def data_screen(network: nn.Module, data: SkillTensors) -> torch.Tensor | None:
-    """``(N,)`` bool: a screened ensemble's geometric screen of the stored pairs of ``data``
-    (:class:`~t2m_skills_tableenv.screened_q.ScreenedQEnsemble`); ``None`` for the other networks."""
+    """``(N,)`` bool: a geometric ensemble's geometric screen of the stored pairs of ``data``
+    (:class:`~t2m_skills_tableenv.geometric_q.GeometricQEnsemble`); ``None`` for the other networks."""
     screen = getattr(network, "screen", None)
     return None if screen is None else screen(data.states(), data.actions)
 
 
 def screen_argument(screen: torch.Tensor | None, index: torch.Tensor) -> dict[str, torch.Tensor]:
-    """The keyword a screened ensemble takes for the stored pairs ``index`` (none for the others)."""
+    """The keyword a geometric ensemble takes for the stored pairs ``index`` (none for the others)."""
     return {} if screen is None else {"screen": screen[index]}
 
 
 @torch.no_grad()
 def q_metrics(network: QEnsemble | RelationalQEnsemble, data: SkillTensors, screen: torch.Tensor | None = None) -> dict[str, float]:
     """Validation BCE, and precision / recall / accuracy of the pessimistic prediction
-    min_i Q_i > 0.5 (what planning uses) against the rewards. ``screen``: a screened ensemble's
+    min_i Q_i > 0.5 (what planning uses) against the rewards. ``screen``: a geometric ensemble's
     :func:`data_screen` of ``data``, computed by the network when not given."""
     states = data.states()
     logits = network(states, data.actions, **screen_argument(screen, slice(None)))
@@ -678,11 +678,11 @@ def train_skill(
         # the policy and dynamics would otherwise train on the labelled splits alone
         raise T2MError("anchor data keep what a starting Q-ensemble predicts there: they need --init-from and the Q-ensemble "
                        "trained alone", "add --init-from CHECKPOINTS and --model q")
-    if "q" in models and settings["q"].q_network == "screened":
+    if "q" in models and settings["q"].q_network == "geometric":
         from t2m_skills_tableenv.geometric_screen import SCREEN_SKILLS
 
         if skill not in SCREEN_SKILLS:
-            raise T2MError(f"no geometric screen for {skill}'s Q-ensemble (screened skills: {', '.join(SCREEN_SKILLS)})",
+            raise T2MError(f"no geometric screen for {skill}'s Q-ensemble (skills with one: {', '.join(SCREEN_SKILLS)})",
                            f"train {skill}'s ensemble with --q-network mlp or relational")
     train_dir, validation_dir = Path(data) / skill / "train", Path(data) / skill / "validation"
     more_dirs = tuple(Path(d) / skill / "train" for d in more_train)

@@ -1,5 +1,5 @@
 """The geometric screen read from skill states, and the Q-ensemble that reads it
-(docs/guide/skills.md#screened-q-ensemble): neighbours placed by hand, rows as the networks see
+(docs/guide/skills.md#geometric-q-ensemble): neighbours placed by hand, rows as the networks see
 them, training and checkpoints."""
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from t2m_core.errors import T2MError
 from t2m_skills_tableenv.checkpoints import load_q, save_weights, update_config
 from t2m_skills_tableenv.geometric_screen import row_objects, screen_flags
 from t2m_skills_tableenv.networks import build_q, q_architecture
-from t2m_skills_tableenv.screened_q import ScreenedQEnsemble
+from t2m_skills_tableenv.geometric_q import GeometricQEnsemble
 from tests.domain.scenes import RACK_IN_WORKSPACE, on_table, scene
 
 PICK = PRIMITIVES["pick"]
@@ -74,7 +74,7 @@ def test_an_unknown_shape_or_skill_is_named() -> None:
     with pytest.raises(KeyError, match="no geometric screen for skill 'push'"):
         screen_flags("push", rows, actions_of(ACROSS_Y))
     with pytest.raises(ValueError, match="no geometric screen for skill 'push'"):
-        ScreenedQEnsemble("push")
+        GeometricQEnsemble("push")
 
 
 def states_and_actions(count: int, seed: int) -> tuple[torch.Tensor, torch.Tensor]:
@@ -86,9 +86,9 @@ def states_and_actions(count: int, seed: int) -> tuple[torch.Tensor, torch.Tenso
     return torch.from_numpy(rows.reshape(count, 96)).float(), torch.from_numpy(actions).float()
 
 
-def test_a_screened_ensemble_reads_the_screen_it_computes_or_is_given() -> None:
+def test_a_geometric_ensemble_reads_the_screen_it_computes_or_is_given() -> None:
     torch.manual_seed(0)
-    network = ScreenedQEnsemble("pick")
+    network = GeometricQEnsemble("pick")
     states, actions = states_and_actions(16, 0)
     computed = network.screen(states, actions)
     assert computed.any() and not computed.all()
@@ -114,28 +114,28 @@ def test_training_learns_what_the_screen_predicts(tmp_path) -> None:
 
     train, validation = problem(256, 1), problem(128, 2)
     torch.manual_seed(0)
-    settings = StageSettings(steps=300, batch_size=64, learning_rate=1e-3, eval_every=100, q_network="screened")
-    stage = QStage(train, validation, settings, ScreenedQEnsemble("pick"))
+    settings = StageSettings(steps=300, batch_size=64, learning_rate=1e-3, eval_every=100, q_network="geometric")
+    stage = QStage(train, validation, settings, GeometricQEnsemble("pick"))
     run_stage(stage, settings, tmp_path)
     metrics = q_metrics(stage.network, validation)
     assert metrics["accuracy"] > 0.95, metrics
 
 
-def test_a_screened_checkpoint_round_trips_and_other_skills_are_refused(tmp_path) -> None:
-    architecture = q_architecture("pick", "screened")
+def test_a_geometric_checkpoint_round_trips_and_other_skills_are_refused(tmp_path) -> None:
+    architecture = q_architecture("pick", "geometric")
     assert architecture["input"] == 101 and architecture["skill"] == "pick"
     torch.manual_seed(1)
     network = build_q(architecture)
     save_weights(tmp_path / "q_ensemble.safetensors", network)
     update_config(tmp_path, skill="pick", models={"q": {"file": "q_ensemble.safetensors", "architecture": architecture}})
     loaded = load_q(tmp_path)
-    assert isinstance(loaded, ScreenedQEnsemble)
+    assert isinstance(loaded, GeometricQEnsemble)
     states, actions = states_and_actions(4, 3)
     torch.testing.assert_close(loaded(states, actions), network(states, actions), rtol=0, atol=0)
 
 
-def test_training_a_screened_ensemble_for_a_skill_without_a_screen_is_refused(tmp_path) -> None:
+def test_training_a_geometric_ensemble_for_a_skill_without_a_screen_is_refused(tmp_path) -> None:
     from t2m_skills_tableenv.training import train_skill
 
     with pytest.raises(T2MError, match="no geometric screen for push's Q-ensemble"):
-        train_skill("push", ("q",), tmp_path / "data", tmp_path / "out", {"q_network": "screened"})
+        train_skill("push", ("q",), tmp_path / "data", tmp_path / "out", {"q_network": "geometric"})

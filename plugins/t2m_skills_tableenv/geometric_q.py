@@ -1,9 +1,9 @@
-"""A Q-ensemble that also reads the primitive's geometric screen (docs/guide/skills.md#screened-q-ensemble).
+"""A Q-ensemble that also reads the primitive's geometric screen (docs/guide/skills.md#geometric-q-ensemble).
 
 The published ensemble must learn from the 96 state numbers alone that an open finger comes down on
 the hook lying beside a box: its data hold few such picks, and the shipped Pick ensemble calls about
 half of its validation collisions successes. The domain's geometry already predicts them
-(:func:`~t2m_skills_tableenv.geometric_screen.screen_flags`), so :class:`ScreenedQEnsemble` gives
+(:func:`~t2m_skills_tableenv.geometric_screen.screen_flags`), so :class:`GeometricQEnsemble` gives
 each member that prediction as one more input and lets it learn how far to trust it.
 """
 
@@ -18,7 +18,7 @@ SCREEN_INPUT = 0.5
 """The screen enters as +0.5 (predicted in the way) or −0.5, the range of the normalised features."""
 
 
-class ScreenedQEnsemble(QEnsemble):
+class GeometricQEnsemble(QEnsemble):
     """``members`` MLPs ``(96 + 4 + 1) → 256 → 256 → 1``: :class:`QEnsemble` with the skill's
     geometric screen as a 101st input.
 
