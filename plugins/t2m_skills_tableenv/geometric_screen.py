@@ -24,29 +24,32 @@ SCREEN_SKILLS = ("pick",)
 """Skills whose Q-ensemble can read the screen (``t2m train --q-network geometric``)."""
 _NAMES = tuple(name for name, spec in OBJECTS.items() if spec.kind is not ObjectKind.TABLE)
 _SHAPES = np.array([OBJECTS[name].shape_features() for name in _NAMES], dtype=np.float64)  # (objects, 6)
-_SHAPE_TOLERANCE = 1e-4
-"""Raw shape features this close identify an object (they pass through normalisation and back)."""
-_ZERO = 1e-5
+_SHAPE_TOLERANCE = 0.0015
+"""m: a row's shape features name the object whose own lie nearest, if within this (the closest two
+objects, the yellow and the cyan box, differ by 4 mm; a predicted state's rows drift a little)."""
+_SHAPELESS = 1e-3
+"""Raw shape features all below this: the table's row or an empty slot (whatever pose a dynamics
+model predicted for it)."""
 
 
 def row_objects(rows: np.ndarray) -> tuple[str | None, ...]:
-    """The object of each of the 7 object rows of one raw ``(8, 12)`` state, by its shape features:
-    a name, ``"table"`` for the first all-zero row (the table's row carries nothing), ``None`` for
-    the other all-zero rows (empty slots).
+    """The object of each of the 7 object rows of one raw ``(8, 12)`` state, real or predicted, by its
+    shape features: the name whose shape lies nearest, ``"table"`` for the first row without shape
+    features (the table's row carries none), ``None`` for the others (empty slots).
 
     Raises:
         ValueError: a row whose shape features match no object of the world.
     """
-    objects = np.asarray(rows, dtype=np.float64)[1:]
-    empty = np.all(np.abs(objects) < _ZERO, axis=-1)  # (7,)
-    matches = np.all(np.abs(objects[:, None, STATIC_FEATURES] - _SHAPES) < _SHAPE_TOLERANCE, axis=-1)  # (7, objects)
-    unknown = ~empty & ~matches.any(axis=-1)
+    shapes = np.asarray(rows, dtype=np.float64)[1:, STATIC_FEATURES]  # (7, 6)
+    shapeless = np.all(np.abs(shapes) < _SHAPELESS, axis=-1)
+    distance = np.abs(shapes[:, None] - _SHAPES).max(axis=-1)  # (7, objects)
+    unknown = ~shapeless & (distance.min(axis=-1) > _SHAPE_TOLERANCE)
     if unknown.any():
-        shape = objects[int(np.argmax(unknown)), STATIC_FEATURES]
+        shape = shapes[int(np.argmax(unknown))]
         raise ValueError(f"a row's shape features {np.round(shape, 4).tolist()} match no object of the world")
-    names: list[str | None] = [None if is_empty else _NAMES[int(np.argmax(match))] for is_empty, match in zip(empty, matches, strict=True)]
-    if empty.any():
-        names[int(np.argmax(empty))] = "table"  # the first all-zero row
+    names: list[str | None] = [None if empty else _NAMES[int(nearest)] for empty, nearest in zip(shapeless, distance.argmin(axis=-1), strict=True)]
+    if shapeless.any():
+        names[int(np.argmax(shapeless))] = "table"  # the first row without shape features
     return tuple(names)
 
 

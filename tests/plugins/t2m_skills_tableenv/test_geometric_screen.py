@@ -53,6 +53,11 @@ def test_rows_name_every_object_by_its_shape() -> None:
     rows = skill_rows(state, ["red_box"])[0]
     # argument first, then the others in task order; the table's all-zero row, then an empty slot
     assert row_objects(rows) == ("red_box", "table", "rack", "hook", "blue_box", None, None)
+    # a predicted state: the table's row moved a little, the shapes drifted by half a millimetre
+    predicted = rows.copy()
+    predicted[2, :3] = [0.001, -0.002, 0.0005]
+    predicted[[1, 3, 4, 5], 6:9] += 0.0005
+    assert row_objects(predicted) == row_objects(rows)
 
 
 def test_the_screen_sees_a_neighbour_along_the_jaw_from_the_rows() -> None:
@@ -68,7 +73,7 @@ def test_the_screen_sees_a_neighbour_along_the_jaw_from_the_rows() -> None:
 
 def test_an_unknown_shape_or_skill_is_named() -> None:
     rows = skill_rows(neighbour_scene(0.05), ["red_box"])
-    rows[0, 4, 8] = 0.09  # the blue box 9 cm tall: no object of the world
+    rows[0, 5, 8] = 0.09  # the blue box 9 cm tall: no object of the world
     with pytest.raises(ValueError, match="match no object of the world"):
         screen_flags("pick", rows, actions_of(ACROSS_Y))
     with pytest.raises(KeyError, match="no geometric screen for skill 'push'"):
