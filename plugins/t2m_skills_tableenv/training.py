@@ -93,10 +93,6 @@ class StageSettings(BaseModel):
     policy_target_weight: float = Field(
         1.0, ge=0, description="policy only, with policy_targets: weight of the squared distance to the target against the actor loss"
     )
-    policy_target_margin: float = Field(
-        0.0, ge=0, le=1, description="policy only, with policy_targets: a searched copy replaces the policy's own action as "
-        "the target only where it is valued at least this much higher (0: wherever it is valued higher)"
-    )
     policy_target_value: Literal["min", "mean"] = Field(
         "min", description="policy only, with policy_targets: rank the copies by the members' minimum (the actor's own, "
         "pessimistic value) or by their mean"
@@ -316,7 +312,7 @@ class PolicyStage(Stage):
             generator = torch.Generator().manual_seed(self.settings.seed)
             self.targets = searched_actions(
                 self.network, self.q_ensemble, self.train.rows, self.settings.policy_targets, self.settings.policy_target_sigma, generator,
-                value=self.settings.policy_target_value, margin=self.settings.policy_target_margin, on_progress=on_progress,
+                value=self.settings.policy_target_value, on_progress=on_progress,
             )
 
     def parameters_to_save(self) -> dict[str, nn.Module | torch.optim.Optimizer]:
@@ -364,14 +360,12 @@ def searched_actions(
     sigma: float,
     generator: torch.Generator,
     value: Literal["min", "mean"] = "min",
-    margin: float = 0.0,
     pairs_per_batch: int = 65_536,
     on_progress: Callable[[int, int], None] | None = None,
 ) -> torch.Tensor:
     """For each state, the best of the policy's deterministic action and ``samples`` copies of it
     with N(0, sigma²) noise per dimension, clipped to [−1, 1], by the ensemble members' minimum
-    (``value="min"``) or mean (``"mean"``) success probability; the policy's own action unless the
-    best copy is valued at least ``margin`` higher.
+    (``value="min"``) or mean (``"mean"``) success probability.
 
     Args:
         rows: ``(N, 8, 12)`` states in their stored row order; identical states share one search.
@@ -392,9 +386,7 @@ def searched_actions(
         repeated = states[:, None].expand(-1, samples + 1, -1).reshape(-1, states.shape[1])
         members = q_ensemble.probabilities(repeated, candidates.reshape(-1, ACTION_DIM))
         ranked = (members.min(dim=1).values if value == "min" else members.mean(dim=1)).reshape(states.shape[0], -1)
-        gain, choice = (ranked - ranked[:, :1]).max(dim=1)
-        choice = torch.where(gain >= margin, choice, torch.zeros_like(choice))  # column 0: the policy's own action
-        best[start:start + chunk] = candidates[torch.arange(states.shape[0]), choice]
+        best[start:start + chunk] = candidates[torch.arange(states.shape[0]), ranked.argmax(dim=1)]
         if on_progress:
             on_progress(start + states.shape[0], unique.shape[0])
     return best[inverse]

@@ -71,10 +71,6 @@ def train(
     policy_target_sigma: Annotated[
         float | None, typer.Option("--policy-target-sigma", min=0.0, help="Noise of those copies per action dimension (default 0.3).")
     ] = None,
-    policy_target_margin: Annotated[
-        float | None,
-        typer.Option("--policy-target-margin", min=0.0, max=1.0, help="A searched copy replaces the policy's own action as the target only where it is valued this much higher (default 0)."),
-    ] = None,
     policy_target_weight: Annotated[
         float | None, typer.Option("--policy-target-weight", min=0.0, help="Weight of the distance to those targets against the actor loss (default 1).")
     ] = None,
@@ -128,7 +124,7 @@ def train(
         ("steps", steps), ("eval_every", eval_every), ("learning_rate", learning_rate), ("train_size", train_size), ("ensemble_batches", ensemble_batches),
         ("selection_episodes", selection_episodes), ("q_network", q_network), ("dynamics_network", dynamics_network), ("anchor_weight", anchor_weight),
         ("exposure_weight", exposure_weight), ("policy_targets", policy_targets), ("policy_target_sigma", policy_target_sigma),
-        ("policy_target_weight", policy_target_weight), ("policy_target_margin", policy_target_margin), ("policy_target_value", policy_target_value),
+        ("policy_target_weight", policy_target_weight), ("policy_target_value", policy_target_value),
     )
     overrides = {key: value for key, value in chosen if value is not None}
     results = {}

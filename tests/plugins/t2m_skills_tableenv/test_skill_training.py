@@ -405,30 +405,6 @@ def test_searched_targets_are_never_valued_below_the_policys_action_and_identica
     torch.testing.assert_close(again, targets)
 
 
-def test_a_target_margin_keeps_the_policys_own_action_where_the_search_gains_less() -> None:
-    """A policy that acts at the lower peak (0.6) everywhere: the higher one is worth about 0.33
-    more, so a margin of 0.2 still moves every target there, one of 0.5 keeps the policy's own actions."""
-    from t2m_skills_tableenv.networks import GaussianPolicy
-    from t2m_skills_tableenv.training import searched_actions
-
-    torch.manual_seed(0)
-    policy, q, rows = GaussianPolicy(), _TwoPeaks(), synthetic(32, 5).rows
-    with torch.no_grad():
-        policy.net[-1].weight.zero_()
-        policy.net[-1].bias.zero_()  # the deterministic action is 0: the lower peak
-        own = policy(rows.reshape(32, -1))
-    assert bool((own == 0).all())
-    plain = searched_actions(policy, q, rows, 256, 0.3, torch.Generator().manual_seed(0))
-    small = searched_actions(policy, q, rows, 256, 0.3, torch.Generator().manual_seed(0), margin=0.2)
-    large = searched_actions(policy, q, rows, 256, 0.3, torch.Generator().manual_seed(0), margin=0.5)
-    assert (plain[:, 0] + 0.7).abs().median() < 0.1
-    states = rows.reshape(32, -1)
-    gain = q.probabilities(states, plain).min(dim=1).values - q.probabilities(states, own).min(dim=1).values
-    assert (gain >= 0.2).float().mean() > 0.9
-    torch.testing.assert_close(small, torch.where((gain >= 0.2)[:, None], plain, own))
-    torch.testing.assert_close(large, own)
-
-
 class _Disputed(torch.nn.Module):
     """A test-double ensemble with two peaks of the action's first component: at −0.5 every member
     says 0.7; at +0.5 half say 1.0 and half 0.5 (a higher mean, a lower minimum)."""
