@@ -19,6 +19,8 @@ import numpy as np
 from t2m_core.domain.objects import OBJECTS, ObjectKind
 from t2m_core.domain.observation import FEATURES, OBSERVATION_ROWS, STATIC_FEATURES, decode_observation
 from t2m_core.domain.primitives import PRIMITIVES
+from t2m_core.domain.primitives.base import Primitive
+from t2m_core.domain.state import GeometricState
 
 SCREEN_SKILLS = ("pick",)
 """Skills whose Q-ensemble can read the screen (``t2m train --q-network geometric``)."""
@@ -55,7 +57,8 @@ def row_objects(rows: np.ndarray) -> tuple[str | None, ...]:
 
 def screen_flags(skill: str, rows: np.ndarray, actions: np.ndarray) -> np.ndarray:
     """``(N,)`` bool: whether the primitive's geometry predicts each action to drive something into
-    another object (its ``in_the_way``), for ``(N, 8, 12)`` raw argument-first rows (row 0 the EE,
+    another object (its ``in_the_way``; every action of a call the primitive refuses, such as the
+    invalid split's ``pick(table)``), for ``(N, 8, 12)`` raw argument-first rows (row 0 the EE,
     then the skill's arguments) and ``(N, 4)`` normalised actions. States that repeat (a planner
     ranking many actions in one state) are decoded once and screened in one batch.
 
@@ -78,5 +81,20 @@ def screen_flags(skill: str, rows: np.ndarray, actions: np.ndarray) -> np.ndarra
         observation[1 : 1 + len(present)] = state_rows[present]
         state = decode_observation(observation, [names[row - 1] for row in present])
         mine = np.flatnonzero(inverse.reshape(-1) == index)
-        flags[mine] = primitive.in_the_way(state, names[:arity], physical[mine])
+        arguments = names[:arity]
+        if _refuses(primitive, state, arguments):
+            flags[mine] = True  # a call the primitive cannot make (an invalid pair): nothing it does can succeed
+            continue
+        flags[mine] = primitive.in_the_way(state, arguments, physical[mine])
     return flags
+
+
+def _refuses(primitive: Primitive, state: GeometricState, arguments: tuple[str | None, ...]) -> bool:
+    """Whether ``primitive`` refuses ``arguments`` (an empty row, or an object of the wrong kind)."""
+    if None in arguments:
+        return True
+    try:
+        primitive.check_arguments(state, arguments)
+    except ValueError:
+        return True
+    return False

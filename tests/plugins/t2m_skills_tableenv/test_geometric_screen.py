@@ -71,6 +71,13 @@ def test_the_screen_sees_a_neighbour_along_the_jaw_from_the_rows() -> None:
     assert screen_flags("pick", mixed, actions_of(ACROSS_Y, ACROSS_Y, ACROSS_X)).tolist() == [True, False, False]
 
 
+def test_every_action_of_a_call_the_primitive_refuses_is_in_the_way() -> None:
+    # the invalid split's pairs: the table's all-zero row or the rack as Pick's argument
+    state = neighbour_scene(0.05)
+    refused = np.concatenate((skill_rows(state, ["table"]), skill_rows(state, ["rack"])))
+    assert screen_flags("pick", refused, actions_of(ACROSS_X, ACROSS_X)).tolist() == [True, True]
+
+
 def test_an_unknown_shape_or_skill_is_named() -> None:
     rows = skill_rows(neighbour_scene(0.05), ["red_box"])
     rows[0, 5, 8] = 0.09  # the blue box 9 cm tall: no object of the world
