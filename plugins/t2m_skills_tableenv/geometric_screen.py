@@ -58,7 +58,7 @@ def row_objects(rows: np.ndarray) -> tuple[str | None, ...]:
 def screen_flags(skill: str, rows: np.ndarray, actions: np.ndarray) -> np.ndarray:
     """``(N,)`` bool: whether the primitive's geometry predicts each action to drive something into
     another object (its ``in_the_way``; every action of a call the primitive refuses, such as the
-    invalid split's ``pick(table)``), for ``(N, 8, 12)`` raw argument-first rows (row 0 the EE,
+    invalid split's ``pick(table)``; none for a state whose rows name no object of the world), for ``(N, 8, 12)`` raw argument-first rows (row 0 the EE,
     then the skill's arguments) and ``(N, 4)`` normalised actions. States that repeat (a planner
     ranking many actions in one state) are decoded once and screened in one batch.
 
@@ -74,7 +74,10 @@ def screen_flags(skill: str, rows: np.ndarray, actions: np.ndarray) -> np.ndarra
     unique, inverse = np.unique(rows.reshape(len(rows), -1), axis=0, return_inverse=True)
     flags = np.zeros(len(rows), dtype=bool)
     for index, state_rows in enumerate(unique.reshape(-1, OBSERVATION_ROWS, FEATURES)):
-        names = row_objects(state_rows)
+        try:
+            names = row_objects(state_rows)
+        except ValueError:
+            continue  # not a state of this world (a conformance check's random rows): no prediction
         present = [row for row, name in enumerate(names, start=1) if name is not None]
         observation = np.zeros((OBSERVATION_ROWS, FEATURES))
         observation[0] = state_rows[0]

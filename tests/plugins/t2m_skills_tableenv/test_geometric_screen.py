@@ -78,11 +78,14 @@ def test_every_action_of_a_call_the_primitive_refuses_is_in_the_way() -> None:
     assert screen_flags("pick", refused, actions_of(ACROSS_X, ACROSS_X)).tolist() == [True, True]
 
 
-def test_an_unknown_shape_or_skill_is_named() -> None:
+def test_an_unknown_shape_is_named_and_left_unscreened_and_an_unknown_skill_named() -> None:
     rows = skill_rows(neighbour_scene(0.05), ["red_box"])
-    rows[0, 5, 8] = 0.09  # the blue box 9 cm tall: no object of the world
+    near = skill_rows(neighbour_scene(0.003), ["red_box"])
+    assert screen_flags("pick", near, actions_of(ACROSS_Y)).tolist() == [True]
+    near[0, 5, 8] = 0.09  # the blue box 9 cm tall: no object of the world
     with pytest.raises(ValueError, match="match no object of the world"):
-        screen_flags("pick", rows, actions_of(ACROSS_Y))
+        row_objects(near[0])
+    assert screen_flags("pick", near, actions_of(ACROSS_Y)).tolist() == [False]  # no prediction for it
     with pytest.raises(KeyError, match="no geometric screen for skill 'push'"):
         screen_flags("push", rows, actions_of(ACROSS_Y))
     with pytest.raises(ValueError, match="no geometric screen for skill 'push'"):
