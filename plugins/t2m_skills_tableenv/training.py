@@ -219,7 +219,7 @@ class QStage(Stage):
             self.resample = torch.randint(len(train), (self.network.members, len(train)), generator=generator)
         self.optimizer = torch.optim.Adam(self.network.parameters(), lr=settings.learning_rate)
         self.schedule = torch.optim.lr_scheduler.CosineAnnealingLR(self.optimizer, T_max=settings.steps, eta_min=0.0)
-        # a geometric ensemble's geometric screen of the stored pairs, computed once (row order does not change it)
+        # a geometric ensemble's screen of the stored pairs, computed once (row order does not change it)
         self.train_screen, self.validation_screen = data_screen(self.network, train), data_screen(self.network, validation)
 
     @property
@@ -434,13 +434,13 @@ class DynamicsStage(Stage):
 
 
 def data_screen(network: nn.Module, data: SkillTensors) -> torch.Tensor | None:
-    """``(N,)`` bool: a geometric ensemble's geometric screen of the stored pairs of ``data``
+    """``(N,)`` bool: a geometric ensemble's screen of the stored pairs of ``data``
     (:class:`~t2m_skills_tableenv.geometric_q.GeometricQEnsemble`); ``None`` for the other networks."""
     screen = getattr(network, "screen", None)
     return None if screen is None else screen(data.states(), data.actions)
 
 
-def screen_argument(screen: torch.Tensor | None, index: torch.Tensor) -> dict[str, torch.Tensor]:
+def screen_argument(screen: torch.Tensor | None, index: torch.Tensor | slice) -> dict[str, torch.Tensor]:
     """The keyword a geometric ensemble takes for the stored pairs ``index`` (none for the others)."""
     return {} if screen is None else {"screen": screen[index]}
 
