@@ -58,9 +58,10 @@ def row_objects(rows: np.ndarray) -> tuple[str | None, ...]:
 def screen_flags(skill: str, rows: np.ndarray, actions: np.ndarray) -> np.ndarray:
     """``(N,)`` bool: whether the primitive's geometry predicts each action to drive something into
     another object (its ``in_the_way``; every action of a call the primitive refuses, such as the
-    invalid split's ``pick(table)``; none for a state whose rows name no object of the world), for ``(N, 8, 12)`` raw argument-first rows (row 0 the EE,
-    then the skill's arguments) and ``(N, 4)`` normalised actions. States that repeat (a planner
-    ranking many actions in one state) are decoded once and screened in one batch.
+    invalid split's ``pick(table)``; none for a state whose rows name no object of the world), for
+    ``(N, 8, 12)`` raw argument-first rows (row 0 the EE, then the skill's arguments) and ``(N, 4)``
+    normalised actions. States that repeat (a planner ranking many actions in one state) are decoded
+    once and screened in one batch.
 
     Raises:
         KeyError: a skill without a screen.
@@ -72,8 +73,11 @@ def screen_flags(skill: str, rows: np.ndarray, actions: np.ndarray) -> np.ndarra
     physical = primitive.to_physical(np.asarray(actions, dtype=np.float64).reshape(len(rows), -1))
     arity = len(primitive.argument_kinds)
     unique, inverse = np.unique(rows.reshape(len(rows), -1), axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    # the samples of each distinct state, in order
+    groups = np.split(np.argsort(inverse, kind="stable"), np.cumsum(np.bincount(inverse, minlength=len(unique)))[:-1])
     flags = np.zeros(len(rows), dtype=bool)
-    for index, state_rows in enumerate(unique.reshape(-1, OBSERVATION_ROWS, FEATURES)):
+    for state_rows, mine in zip(unique.reshape(-1, OBSERVATION_ROWS, FEATURES), groups, strict=True):
         try:
             names = row_objects(state_rows)
         except ValueError:
@@ -83,7 +87,6 @@ def screen_flags(skill: str, rows: np.ndarray, actions: np.ndarray) -> np.ndarra
         observation[0] = state_rows[0]
         observation[1 : 1 + len(present)] = state_rows[present]
         state = decode_observation(observation, [names[row - 1] for row in present])
-        mine = np.flatnonzero(inverse.reshape(-1) == index)
         arguments = names[:arity]
         if _refuses(primitive, state, arguments):
             flags[mine] = True  # a call the primitive cannot make (an invalid pair): nothing it does can succeed
