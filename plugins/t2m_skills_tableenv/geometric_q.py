@@ -50,7 +50,3 @@ class GeometricQEnsemble(QEnsemble):
             screen = self.screen(states, actions)
         flag = (screen.to(states.dtype) - 0.5) * (2.0 * SCREEN_INPUT)
         return self._logits(torch.cat((states, actions, flag[..., None]), dim=-1))
-
-    def probabilities(self, states: torch.Tensor, actions: torch.Tensor, screen: torch.Tensor | None = None) -> torch.Tensor:
-        """``(N, B)`` success probabilities of every member."""
-        return torch.sigmoid(self.forward(states, actions, screen))
