@@ -678,12 +678,6 @@ def train_skill(
         # the policy and dynamics would otherwise train on the labelled splits alone
         raise T2MError("anchor data keep what a starting Q-ensemble predicts there: they need --init-from and the Q-ensemble "
                        "trained alone", "add --init-from CHECKPOINTS and --model q")
-    if "q" in models and settings["q"].q_network == "geometric":
-        from t2m_skills_tableenv.geometric_screen import SCREEN_SKILLS
-
-        if skill not in SCREEN_SKILLS:
-            raise T2MError(f"no geometric screen for {skill}'s Q-ensemble (skills with one: {', '.join(SCREEN_SKILLS)})",
-                           f"train {skill}'s ensemble with --q-network mlp or relational")
     train_dir, validation_dir = Path(data) / skill / "train", Path(data) / skill / "validation"
     more_dirs = tuple(Path(d) / skill / "train" for d in more_train)
     anchored = {d.resolve() for d in anchor_dirs}

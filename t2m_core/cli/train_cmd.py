@@ -53,7 +53,7 @@ def train(
     ] = None,
     q_network: Annotated[
         str | None,
-        typer.Option("--q-network", help="Q-ensemble network: mlp (published), relational (reads the other objects as a set) or geometric (also reads the primitive's geometric screen; pick)."),
+        typer.Option("--q-network", help="Q-ensemble network: mlp (published), relational (reads the other objects as a set) or geometric (also reads the primitive's geometric screen)."),
     ] = None,
     dynamics_network: Annotated[
         str | None,

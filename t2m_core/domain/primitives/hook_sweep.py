@@ -8,12 +8,12 @@ to the target, the base point is the target's xy at the sweep height 0.03 m. The
 from __future__ import annotations
 
 from abc import abstractmethod
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from t2m_core.domain.geometry import quat_conjugate, quat_multiply, quat_yaw, rotate, yaw_to_quat
+from t2m_core.domain.geometry import ObjectGeometry, object_geometry, quat_conjugate, quat_multiply, quat_yaw, rotate, yaw_to_quat
 from t2m_core.domain.objects import object_spec
 from t2m_core.domain.primitives.base import Primitive
 from t2m_core.domain.primitives.sweep_screen import (
@@ -23,10 +23,11 @@ from t2m_core.domain.primitives.sweep_screen import (
     lands_on_target,
     obstacle_footprints,
     predict_sweep,
+    predict_sweeps,
     sweep_disturbs,
     unreachable,
 )
-from t2m_core.domain.state import GeometricState
+from t2m_core.domain.state import GeometricState, ObjectPose
 
 SWEEP_HEIGHT = 0.03
 """z of the hook's origin during a reach and a sweep, metres."""
@@ -241,11 +242,33 @@ class HookSweep(Primitive):
         or the hand into a bystander (an object other than the arguments and the table:
         :func:`~t2m_core.domain.primitives.sweep_screen.sweep_disturbs`), whatever else the screen
         would say of it. A prediction from the domain's geometry, not a result."""
-        arguments = self.check_arguments(state, arguments)
-        obstacles = obstacle_footprints(bystanders(state, arguments))
-        if len(obstacles) == 0:
+        physical = np.asarray(physical, dtype=np.float64)
+        return self.in_the_way_of_states([state], arguments, physical, np.zeros(len(physical), dtype=np.int64))
+
+    def in_the_way_of_states(
+        self, states: Sequence[GeometricState], arguments: Sequence[str], physical: np.ndarray, state_of: np.ndarray
+    ) -> np.ndarray:
+        """:meth:`in_the_way` of ``(B, 4)`` physical actions, action b taken in ``states[state_of[b]]``,
+        judged as one batch: a planner's samples, each in its own predicted state. The states hold
+        the same objects; an object's geometry is computed once per distinct pose."""
+        arguments = self.check_arguments(states[0], arguments)
+        target, hook = arguments[0], arguments[1]
+        state_of = np.asarray(state_of, dtype=np.int64)
+        geometry = _memo_geometry()
+        obstacles = [obstacle_footprints(bystanders(state, arguments, geometry)) for state in states]  # (N, K_s, 2) each
+        if obstacles[0].shape[0] == 0:
             return np.zeros(len(physical), dtype=bool)
-        prediction = self.predict(state, arguments, np.asarray(physical, dtype=np.float64))
+        obstacles = _pad_vertices(obstacles)[state_of]  # (B, N, K, 2)
+        footprints = _pad_vertices([geometry(target, state.objects[target]).footprints[0] for state in states])[state_of]
+        poses = [(state.objects[target].position[:2], state.objects[hook].position, state.objects[hook].quaternion,
+                  state.ee_position, state.ee_quaternion) for state in states]
+        target_xy, hook_position, hook_quaternion, ee_position, ee_quaternion = (np.array(column)[state_of] for column in zip(*poses, strict=True))
+        sweeps = batched_sweep_poses(target_xy, hook_position, hook_quaternion, ee_position, ee_quaternion, *np.asarray(physical, dtype=np.float64).T)
+        prediction = predict_sweeps(
+            footprints, target_xy, object_spec(hook), sweeps.hook_reach, sweeps.hook_end, sweeps.hook_yaw,
+            np.stack((sweeps.reach_position[:, :2], sweeps.end_position[:, :2]), axis=1),
+            along_head_normal=self.deflects_target, into_crook=not self.deflects_target,
+        )
         return sweep_disturbs(prediction, hook_obstacles=obstacles, target_obstacles=obstacles, hand_obstacles=obstacles)
 
     deflects_target: bool = False
@@ -263,3 +286,23 @@ def hook_clearance(target: str, hook: str) -> tuple[float, float]:
     hook_spec, target_spec = object_spec(hook), object_spec(target)
     radius = hook_spec.hook.radius if hook_spec.hook is not None else 0.0
     return 0.5 * hook_spec.size[0], 2.0 * radius + 0.5 * float(np.linalg.norm(target_spec.size[:2]))
+
+
+def _memo_geometry() -> Callable[[str, ObjectPose], ObjectGeometry]:
+    """:func:`~t2m_core.domain.geometry.object_geometry`, computed once per name and exact pose."""
+    memo: dict[tuple[str, bytes, bytes], ObjectGeometry] = {}
+
+    def geometry(name: str, pose: ObjectPose) -> ObjectGeometry:
+        key = (name, np.asarray(pose.position, dtype=np.float64).tobytes(), np.asarray(pose.quaternion, dtype=np.float64).tobytes())
+        if key not in memo:
+            memo[key] = object_geometry(name, pose)
+        return memo[key]
+
+    return geometry
+
+
+def _pad_vertices(polygons: Sequence[np.ndarray]) -> np.ndarray:
+    """``(S, ..., K, 2)``: ``(..., K_s, 2)`` polygon arrays stacked, each padded to the most vertices by
+    repeating its last one (a zero-length edge, as :func:`~t2m_core.domain.geometry.pad_polygons`)."""
+    size = max(polygon.shape[-2] for polygon in polygons)
+    return np.stack([np.concatenate((p, np.repeat(p[..., -1:, :], size - p.shape[-2], axis=-2)), axis=-2) for p in polygons])

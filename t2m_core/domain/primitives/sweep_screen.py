@@ -38,7 +38,7 @@ from t2m_core.domain.geometry import (
     translation_hull,
     yawed_footprints,
 )
-from t2m_core.domain.objects import BoxPart, ObjectKind, object_spec
+from t2m_core.domain.objects import BoxPart, ObjectKind, ObjectSpec, object_spec
 from t2m_core.domain.state import GeometricState, ObjectPose
 
 EE_MAX_RADIUS = 0.72
@@ -77,14 +77,16 @@ HANDLE, HEAD = 0, 1
 
 @dataclass(frozen=True)
 class SweepPrediction:
-    """The geometry of B hook sweeps from one start state, predicted (world frame, metres).
+    """The geometry of B hook sweeps, predicted (world frame, metres): from one start state, or each
+    from its own (:meth:`~t2m_core.domain.primitives.hook_sweep.HookSweep.in_the_way_of_states`).
 
     Attributes:
         hook_reach: ``(B, P, 4, 2)`` footprints of the hook's convex parts (handle, head) at the reach pose.
         sweep: ``(B, 2)`` the hook's travel from the reach pose to the sweep end.
         hook_yaw: ``(B,)`` the hook's yaw during the sweep, radians.
-        target_start: ``(K, 2)`` the target's footprint now.
-        target_xy: ``(2,)`` the target's position now.
+        target_start: ``(K, 2)`` the target's footprint now (``(B, K, 2)``: each draw's own; then
+            :meth:`take` does not apply).
+        target_xy: ``(2,)`` the target's position now (``(B, 2)``: each draw's own).
         target_shift: ``(B, 2)`` the target's predicted displacement.
         drift_shift: ``(B, 2)`` its displacement if it also slides sideways along the head (Pull: into
             the crook against the handle); ``target_shift`` where no drift is predicted.
@@ -144,10 +146,32 @@ def predict_sweep(
             sweep (Pull).
         into_crook: the box may also slide sideways into the crook, up to the handle (Pull).
     """
-    hook_yaw = np.asarray(hook_yaw, dtype=np.float64)
-    reach = yawed_footprints(object_spec(hook), hook_reach, hook_yaw)
     target_pose = state.objects[target]
     target_start = object_geometry(target, target_pose).footprints[0]
+    return predict_sweeps(
+        target_start, target_pose.position[:2], object_spec(hook), hook_reach, hook_end, hook_yaw, ee_path,
+        along_head_normal=along_head_normal, into_crook=into_crook,
+    )
+
+
+def predict_sweeps(
+    target_start: np.ndarray,
+    target_xy: np.ndarray,
+    hook_spec: ObjectSpec,
+    hook_reach: np.ndarray,
+    hook_end: np.ndarray,
+    hook_yaw: np.ndarray,
+    ee_path: np.ndarray,
+    *,
+    along_head_normal: bool = False,
+    into_crook: bool = False,
+) -> SweepPrediction:
+    """:func:`predict_sweep` from arrays: the target's ``(K, 2)`` footprint and ``(2,)`` xy now, shared
+    by the B sweeps, or ``(B, K, 2)`` and ``(B, 2)``, each sweep's own (other arguments as there)."""
+    hook_yaw = np.asarray(hook_yaw, dtype=np.float64)
+    reach = yawed_footprints(hook_spec, hook_reach, hook_yaw)
+    target_start = np.asarray(target_start, dtype=np.float64)
+    xy = np.asarray(target_xy, dtype=np.float64)
     sweep = (np.asarray(hook_end) - hook_reach)[..., :2]
     direction = unit(sweep)
     shift = target_shifts(reach[..., HEAD, :, :], target_start, sweep, hook_yaw, along_head_normal=along_head_normal)
@@ -155,11 +179,10 @@ def predict_sweep(
     if into_crook:
         handle = reach[..., HANDLE, :, :]
         across = np.stack((-direction[..., 1], direction[..., 0]), axis=-1)
-        away = np.sum((handle.mean(axis=-2) - target_pose.position[:2]) * across, axis=-1) < 0.0
+        away = np.sum((handle.mean(axis=-2) - xy) * across, axis=-1) < 0.0
         across = np.where(away[..., None], -across, across)
         drift = shift + _distances_to(handle, target_start)[..., None] * across
-    xy, ee_path = np.asarray(target_pose.position[:2], dtype=np.float64), np.asarray(ee_path, dtype=np.float64)
-    return SweepPrediction(reach, sweep, hook_yaw, target_start, xy, shift, drift, ee_path)
+    return SweepPrediction(reach, sweep, hook_yaw, target_start, xy, shift, drift, np.asarray(ee_path, dtype=np.float64))
 
 
 def target_shifts(
@@ -271,14 +294,20 @@ def sweep_disturbs(
 def comes_near(points: np.ndarray, edges: np.ndarray, obstacles: np.ndarray, clearance: float) -> np.ndarray:
     """``(B,)`` whether any region of a draw (``(B, ..., M, 2)`` points, ``(B, ..., S, 2, 2)`` edges, as
     :func:`~t2m_core.domain.geometry.hull_distances` takes them) comes within ``clearance`` metres of
-    any ``(N, K, 2)`` obstacle."""
+    any ``(N, K, 2)`` obstacle (or of its own: ``(B, N, K, 2)``, each draw's obstacles)."""
+    per_draw = obstacles.ndim == 4
     # Most regions are far from most obstacles: the gap between bounding boxes, which never exceeds
     # the distance, rules those pairs out before the exact test.
     low, high = points.min(axis=-2)[..., None, :], points.max(axis=-2)[..., None, :]
-    gaps = np.maximum(0.0, np.maximum(obstacles.min(axis=-2) - high, low - obstacles.max(axis=-2)))  # (B, ..., N, 2)
+    obstacle_low, obstacle_high = obstacles.min(axis=-2), obstacles.max(axis=-2)  # ([B,] N, 2)
+    if per_draw:  # one axis per region axis of a draw
+        region_axes = (slice(None),) + (None,) * (points.ndim - 3)
+        obstacle_low, obstacle_high = obstacle_low[region_axes], obstacle_high[region_axes]
+    gaps = np.maximum(0.0, np.maximum(obstacle_low - high, low - obstacle_high))  # (B, ..., N, 2)
     *region, obstacle = np.nonzero(np.sum(gaps * gaps, axis=-1) < clearance**2)
     near = np.zeros(len(points), dtype=bool)
-    distances = hull_distances(points[*region], edges[*region], obstacles[obstacle], polygon_edges(obstacles[obstacle]))
+    candidates = obstacles[region[0], obstacle] if per_draw else obstacles[obstacle]
+    distances = hull_distances(points[*region], edges[*region], candidates, polygon_edges(candidates))
     near[region[0][distances < clearance]] = True
     return near
 
@@ -288,10 +317,13 @@ def obstacle_footprints(geometries: Sequence[ObjectGeometry]) -> np.ndarray:
     return pad_polygons([footprint for geometry in geometries for footprint in geometry.footprints])
 
 
-def bystanders(state: GeometricState, arguments: Sequence[str]) -> list[ObjectGeometry]:
-    """Geometry of the present objects other than the arguments and the table."""
+def bystanders(
+    state: GeometricState, arguments: Sequence[str], geometry: Callable[[str, ObjectPose], ObjectGeometry] = object_geometry
+) -> list[ObjectGeometry]:
+    """Geometry of the present objects other than the arguments and the table (``geometry``: how to
+    compute one, e.g. a memo over many states)."""
     return [
-        object_geometry(name, pose)
+        geometry(name, pose)
         for name, pose in state.objects.items()
         if name not in arguments and object_spec(name).kind is not ObjectKind.TABLE
     ]

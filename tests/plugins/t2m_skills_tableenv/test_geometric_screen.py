@@ -12,7 +12,6 @@ import torch
 
 from t2m_core.domain.observation import argument_first_order, encode_observation, normalize, unnormalize
 from t2m_core.domain.primitives import PRIMITIVES
-from t2m_core.errors import T2MError
 from t2m_skills_tableenv.checkpoints import load_q, save_weights, update_config
 from t2m_skills_tableenv.geometric_screen import row_objects, screen_flags
 from t2m_skills_tableenv.networks import build_q, q_architecture
@@ -86,10 +85,10 @@ def test_an_unknown_shape_is_named_and_left_unscreened_and_an_unknown_skill_name
     with pytest.raises(ValueError, match="match no object of the world"):
         row_objects(near[0])
     assert screen_flags("pick", near, actions_of(ACROSS_Y)).tolist() == [False]  # no prediction for it
-    with pytest.raises(KeyError, match="no geometric screen for skill 'push'"):
-        screen_flags("push", rows, actions_of(ACROSS_Y))
-    with pytest.raises(ValueError, match="no geometric screen for skill 'push'"):
-        GeometricQEnsemble("push")
+    with pytest.raises(KeyError, match="no geometric screen for skill 'stop'"):
+        screen_flags("stop", rows, actions_of(ACROSS_Y))
+    with pytest.raises(ValueError, match="no geometric screen for skill 'stop'"):
+        GeometricQEnsemble("stop")
 
 
 def states_and_actions(count: int, seed: int) -> tuple[torch.Tensor, torch.Tensor]:
@@ -149,8 +148,14 @@ def test_a_geometric_checkpoint_round_trips_and_other_skills_are_refused(tmp_pat
     torch.testing.assert_close(loaded(states, actions), network(states, actions), rtol=0, atol=0)
 
 
-def test_training_a_geometric_ensemble_for_a_skill_without_a_screen_is_refused(tmp_path) -> None:
-    from t2m_skills_tableenv.training import train_skill
+def test_the_sweep_screen_sees_a_bystander_on_a_pull_from_the_rows() -> None:
+    """The hand-placed pulls of the domain's sweep tests: the red box between the blue box and the
+    base is in the way of every draw, the red box aside or absent of none."""
+    from tests.domain.test_sweep_screen import BLOCKED_PULL, PULL_ARGS, PULL_SCENE, holding_hook, pull
 
-    with pytest.raises(T2MError, match="no geometric screen for push's Q-ensemble"):
-        train_skill("push", ("q",), tmp_path / "data", tmp_path / "out", {"q_network": "geometric"})
+    pull_primitive = PRIMITIVES["pull"]
+    draws = pull_primitive.to_normalized(np.array([pull(-0.3, -0.03), pull(-0.2, 0.0), pull(-0.3, 0.05)]))
+    aside = holding_hook((0.8, 0.0), grasp_x=-0.1, rack=False, red_box=on_table("red_box", 0.45, -0.35))
+    for state, expected in ((BLOCKED_PULL, True), (aside, False), (PULL_SCENE, False)):
+        rows = np.repeat(skill_rows(state, list(PULL_ARGS), permutation=None), 3, axis=0)
+        assert screen_flags("pull", rows, draws).tolist() == [expected] * 3
