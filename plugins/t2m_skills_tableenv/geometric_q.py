@@ -15,38 +15,40 @@ from t2m_core.domain.observation import FEATURES, OBSERVATION_ROWS, unnormalize
 from t2m_skills_tableenv.networks import ENSEMBLE_SIZE, HIDDEN, QEnsemble
 
 SCREEN_INPUT = 0.5
-"""The screen enters as +0.5 (predicted in the way) or −0.5, the range of the normalised features."""
+"""Each prediction enters as +0.5 (predicted) or −0.5, the range of the normalised features."""
 
 
 class GeometricQEnsemble(QEnsemble):
-    """``members`` MLPs ``(96 + 4 + 1) → 256 → 256 → 1``: :class:`QEnsemble` with the skill's
-    geometric screen as a 101st input.
+    """``members`` MLPs ``(96 + 4 + F) → 256 → 256 → 1``: :class:`QEnsemble` with the skill's F
+    geometric screen predictions (:data:`~t2m_skills_tableenv.geometric_screen.SCREEN_FEATURES`) as
+    more inputs.
 
     ``forward(states (N, 96), actions (N, 4), screen=None)`` returns the logits ``(N, B)``;
-    ``screen`` ``(N,)`` bool is computed from the states and actions when not given (a trainer passes
-    the flags of its dataset, computed once). Member-specific ``(B, N, 96)`` and ``(B, N, 4)`` inputs
-    take a ``(B, N)`` screen. The screen is a step function of the action: the actor's gradient
-    does not see it, a search over actions does.
+    ``screen`` ``(N, F)`` bool is computed from the states and actions when not given (a trainer
+    passes the predictions for its dataset, computed once). Member-specific ``(B, N, 96)`` and
+    ``(B, N, 4)`` inputs take a ``(B, N, F)`` screen. The screen is a step function of the action:
+    the actor's gradient does not see it, a search over actions does.
     """
 
-    def __init__(self, skill: str, members: int = ENSEMBLE_SIZE, hidden: tuple[int, ...] = HIDDEN) -> None:
-        from t2m_skills_tableenv.geometric_screen import SCREEN_SKILLS
+    def __init__(
+        self, skill: str, members: int = ENSEMBLE_SIZE, hidden: tuple[int, ...] = HIDDEN, features: tuple[str, ...] | None = None
+    ) -> None:
+        from t2m_skills_tableenv.geometric_screen import screen_features
 
-        if skill not in SCREEN_SKILLS:
-            raise ValueError(f"no geometric screen for skill {skill!r} (known: {', '.join(SCREEN_SKILLS)})")
-        super().__init__(members=members, hidden=hidden, extra_inputs=1)
-        self.skill = skill
+        features = screen_features(skill, features)
+        super().__init__(members=members, hidden=hidden, extra_inputs=len(features))
+        self.skill, self.features = skill, features
 
     def screen(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
-        """``(...)`` bool: the geometric screen of normalised ``states (..., 96)`` and ``actions (..., 4)``."""
+        """``(..., F)`` bool: the geometric screen of normalised ``states (..., 96)`` and ``actions (..., 4)``."""
         from t2m_skills_tableenv.geometric_screen import screen_flags
 
         rows = unnormalize(states.detach().cpu().numpy().reshape(-1, OBSERVATION_ROWS, FEATURES))
-        flags = screen_flags(self.skill, rows, actions.detach().cpu().numpy().reshape(len(rows), -1))
-        return torch.from_numpy(flags).reshape(states.shape[:-1]).to(states.device)
+        flags = screen_flags(self.skill, rows, actions.detach().cpu().numpy().reshape(len(rows), -1), self.features)
+        return torch.from_numpy(flags).reshape(*states.shape[:-1], len(self.features)).to(states.device)
 
     def forward(self, states: torch.Tensor, actions: torch.Tensor, screen: torch.Tensor | None = None) -> torch.Tensor:
         if screen is None:
             screen = self.screen(states, actions)
-        flag = (screen.to(states.dtype) - 0.5) * (2.0 * SCREEN_INPUT)
-        return self._logits(torch.cat((states, actions, flag[..., None]), dim=-1))
+        flags = (screen.to(states.dtype) - 0.5) * (2.0 * SCREEN_INPUT)
+        return self._logits(torch.cat((states, actions, flags), dim=-1))

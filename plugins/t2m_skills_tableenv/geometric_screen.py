@@ -24,9 +24,19 @@ from t2m_core.domain.primitives import PRIMITIVES
 from t2m_core.domain.primitives.base import Primitive
 from t2m_core.domain.state import GeometricState
 
-SCREEN_SKILLS = ("pick", "place", "pull", "push")
-"""Skills whose Q-ensemble can read the screen (``t2m train --q-network geometric``): every primitive
-with an ``in_the_way`` prediction."""
+SCREEN_FEATURES: dict[str, tuple[str, ...]] = {
+    "pick": ("in_the_way",),
+    "place": ("in_the_way",),
+    "pull": ("in_the_way", "unreachable"),
+    "push": ("in_the_way", "unreachable"),
+}
+"""The predictions a skill's geometric Q-ensemble reads by default (``t2m train --q-network
+geometric``): every primitive's ``in_the_way``, and for the hook sweeps also ``unreachable`` (the
+EE's path leaves the arm's reach: on the data scenes' Pull validation it predicts every pull the
+simulator ends ``unreachable`` and 3.8 % of the successes)."""
+SCREEN_SKILLS = tuple(SCREEN_FEATURES)
+_BATCHED_FEATURES = ("in_the_way", "unreachable")
+"""What a primitive with ``screen_of_states`` predicts (the others predict ``in_the_way`` alone)."""
 _NAMES = tuple(name for name, spec in OBJECTS.items() if spec.kind is not ObjectKind.TABLE)
 _SHAPES = np.array([OBJECTS[name].shape_features() for name in _NAMES], dtype=np.float64)  # (objects, 6)
 _SHAPE_TOLERANCE = 0.0015
@@ -58,21 +68,39 @@ def row_objects(rows: np.ndarray) -> tuple[str | None, ...]:
     return tuple(names)
 
 
-def screen_flags(skill: str, rows: np.ndarray, actions: np.ndarray) -> np.ndarray:
-    """``(N,)`` bool: whether the primitive's geometry predicts each action to drive something into
-    another object (its ``in_the_way``; every action of a call the primitive refuses, such as the
-    invalid split's ``pick(table)``; none for a state whose rows name no object of the world), for
-    ``(N, 8, 12)`` raw argument-first rows (row 0 the EE, then the skill's arguments) and ``(N, 4)``
-    normalised actions. States that repeat (a planner ranking many actions in one state) are decoded
-    once; a primitive that judges many states at once (Pull, Push: ``in_the_way_of_states``) gets
-    every state with the same objects in one batch (a planner's samples, each in its own predicted
-    state), the others one call per distinct state.
+def screen_features(skill: str, features: tuple[str, ...] | None = None) -> tuple[str, ...]:
+    """``features`` (default: :data:`SCREEN_FEATURES` of ``skill``), checked against what the skill's
+    primitive predicts.
 
     Raises:
-        KeyError: a skill without a screen.
+        ValueError: a skill without a screen, or a prediction its primitive does not make.
     """
-    if skill not in SCREEN_SKILLS:
-        raise KeyError(f"no geometric screen for skill {skill!r} (known: {', '.join(SCREEN_SKILLS)})")
+    if skill not in SCREEN_FEATURES:
+        raise ValueError(f"no geometric screen for skill {skill!r} (known: {', '.join(SCREEN_SKILLS)})")
+    features = SCREEN_FEATURES[skill] if features is None else tuple(features)
+    known = _BATCHED_FEATURES if hasattr(PRIMITIVES[skill], "screen_of_states") else ("in_the_way",)
+    unknown = [name for name in features if name not in known]
+    if unknown or not features:
+        raise ValueError(f"{skill}'s screen predicts {', '.join(known)}; asked for {', '.join(unknown) or 'nothing'}")
+    return features
+
+
+def screen_flags(skill: str, rows: np.ndarray, actions: np.ndarray, features: tuple[str, ...] | None = None) -> np.ndarray:
+    """``(N, F)`` bool: the primitive's geometric predictions ``features`` (default
+    :data:`SCREEN_FEATURES` of ``skill``) for ``(N, 8, 12)`` raw argument-first rows (row 0 the EE,
+    then the skill's arguments) and ``(N, 4)`` normalised actions. ``"in_the_way"``: the action
+    drives something into another object; ``"unreachable"``: the EE leaves the arm's reach. Every
+    prediction is true for a call the primitive refuses (the invalid split's ``pick(table)``:
+    nothing it does can succeed), false for a state whose rows name no object of the world. States
+    that repeat (a planner ranking many actions in one state) are decoded once; a primitive that
+    judges many states at once (Pull, Push: ``screen_of_states``) gets every state with the same
+    objects in one batch (a planner's samples, each in its own predicted state), the others one call
+    per distinct state.
+
+    Raises:
+        ValueError: a skill without a screen, or a prediction its primitive does not make.
+    """
+    features = screen_features(skill, features)
     primitive = PRIMITIVES[skill]
     rows = np.asarray(rows, dtype=np.float64).reshape(-1, OBSERVATION_ROWS, FEATURES)
     physical = primitive.to_physical(np.asarray(actions, dtype=np.float64).reshape(len(rows), -1))
@@ -81,7 +109,7 @@ def screen_flags(skill: str, rows: np.ndarray, actions: np.ndarray) -> np.ndarra
     inverse = inverse.reshape(-1)
     # the samples of each distinct state, in order
     groups = np.split(np.argsort(inverse, kind="stable"), np.cumsum(np.bincount(inverse, minlength=len(unique)))[:-1])
-    flags = np.zeros(len(rows), dtype=bool)
+    flags = np.zeros((len(rows), len(features)), dtype=bool)
     groups_by_objects: dict[tuple[str | None, ...], list[tuple[GeometricState, np.ndarray]]] = {}
     for state_rows, mine in zip(unique.reshape(-1, OBSERVATION_ROWS, FEATURES), groups, strict=True):
         try:
@@ -98,16 +126,16 @@ def screen_flags(skill: str, rows: np.ndarray, actions: np.ndarray) -> np.ndarra
         arguments = names[:arity]
         if _refuses(primitive, members[0][0], arguments):
             for _, mine in members:
-                flags[mine] = True  # a call the primitive cannot make (an invalid pair): nothing it does can succeed
+                flags[mine] = True
             continue
-        batched = getattr(primitive, "in_the_way_of_states", None)
-        if batched is None:
+        if not hasattr(primitive, "screen_of_states"):
             for state, mine in members:
-                flags[mine] = primitive.in_the_way(state, arguments, physical[mine])
+                flags[mine, 0] = primitive.in_the_way(state, arguments, physical[mine])
             continue
         samples = np.concatenate([mine for _, mine in members])
         state_of = np.repeat(np.arange(len(members)), [len(mine) for _, mine in members])
-        flags[samples] = batched([state for state, _ in members], arguments, physical[samples], state_of)
+        predictions = primitive.screen_of_states([state for state, _ in members], arguments, physical[samples], state_of)
+        flags[samples] = np.stack([predictions[name] for name in features], axis=-1)
     return flags
 
 

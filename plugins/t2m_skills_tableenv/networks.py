@@ -183,8 +183,11 @@ def q_architecture(skill: str, network: str) -> dict[str, Any]:
     if network == "mlp":
         return {"type": Q_NETWORKS["mlp"], "members": ENSEMBLE_SIZE, "input": 100, "hidden": list(HIDDEN), "output": "sigmoid", "loss": "bce"}
     if network == "geometric":
-        return {"type": Q_NETWORKS["geometric"], "skill": skill, "members": ENSEMBLE_SIZE, "input": 101, "hidden": list(HIDDEN),
-                "screen": "in_the_way", "output": "sigmoid", "loss": "bce"}
+        from t2m_skills_tableenv.geometric_screen import screen_features
+
+        features = screen_features(skill)
+        return {"type": Q_NETWORKS["geometric"], "skill": skill, "members": ENSEMBLE_SIZE, "input": 100 + len(features),
+                "hidden": list(HIDDEN), "screen": list(features), "output": "sigmoid", "loss": "bce"}
     from t2m_core.domain.primitives import get_primitive
 
     context_rows = 1 + len(get_primitive(skill).argument_kinds)
@@ -207,7 +210,9 @@ def build_q(architecture: dict[str, Any]) -> QEnsemble | RelationalQEnsemble:
     if kind == Q_NETWORKS["geometric"]:
         from t2m_skills_tableenv.geometric_q import GeometricQEnsemble
 
-        return GeometricQEnsemble(str(architecture["skill"]), members=members, hidden=tuple(architecture.get("hidden", HIDDEN)))
+        features = architecture.get("screen", "in_the_way")  # one name: the first (Pick) checkpoints
+        features = (features,) if isinstance(features, str) else tuple(features)
+        return GeometricQEnsemble(str(architecture["skill"]), members=members, hidden=tuple(architecture.get("hidden", HIDDEN)), features=features)
     raise ValueError(f"unknown Q-ensemble type {kind!r} (known: {', '.join(Q_NETWORKS.values())})")
 
 

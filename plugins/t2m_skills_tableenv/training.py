@@ -434,7 +434,7 @@ class DynamicsStage(Stage):
 
 
 def data_screen(network: nn.Module, data: SkillTensors) -> torch.Tensor | None:
-    """``(N,)`` bool: a geometric ensemble's screen of the stored pairs of ``data``
+    """``(N, F)`` bool: a geometric ensemble's screen of the stored pairs of ``data``
     (:class:`~t2m_skills_tableenv.geometric_q.GeometricQEnsemble`); ``None`` for the other networks."""
     screen = getattr(network, "screen", None)
     return None if screen is None else screen(data.states(), data.actions)

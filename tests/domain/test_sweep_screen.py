@@ -209,14 +209,18 @@ def test_in_the_way_sees_a_bystander_on_the_sweep_and_nothing_else() -> None:
     assert PULL.screen(BLOCKED_PULL, PULL_ARGS, draws[2]) == "tipped_over"
 
 
-def test_in_the_way_of_many_states_judges_each_sample_in_its_own_state() -> None:
+def test_the_screen_of_many_states_judges_each_sample_in_its_own_state() -> None:
     """Samples of the blocked and the aside pull mixed in one batch, as a planner's predicted states
     are: each gets the verdict of its own state (the hand-placed facts above)."""
     aside = holding_hook((0.8, 0.0), grasp_x=-0.1, rack=False, red_box=on_table("red_box", 0.45, -0.35))
     draws = np.array([pull(-0.3, -0.03), pull(-0.2, 0.0), pull(-0.3, 0.05), pull(-0.3, -0.03)])
     state_of = np.array([0, 1, 1, 0])
-    assert PULL.in_the_way_of_states([BLOCKED_PULL, aside], PULL_ARGS, draws, state_of).tolist() == [True, False, False, True]
-    assert PULL.in_the_way_of_states([aside, BLOCKED_PULL], PULL_ARGS, draws, state_of).tolist() == [False, True, True, False]
+    assert PULL.screen_of_states([BLOCKED_PULL, aside], PULL_ARGS, draws, state_of)["in_the_way"].tolist() == [True, False, False, True]
+    assert PULL.screen_of_states([aside, BLOCKED_PULL], PULL_ARGS, draws, state_of)["in_the_way"].tolist() == [False, True, True, False]
+    # too long a sweep (the EE ends within the arm's minimum radius) and a box too far (as above)
+    far = holding_hook((1.0, 0.3), grasp_x=-0.1, rack=False, red_box=on_table("red_box", 0.45, -0.35))
+    reach = PULL.screen_of_states([aside, far], PULL_ARGS, np.array([pull(-0.4, -0.03), pull(-0.3, -0.03), pull(-0.3, -0.03)]), np.array([0, 0, 1]))
+    assert reach["unreachable"].tolist() == [True, False, True]
 
 
 def test_obstructed_sampler_sweeps_into_a_bystander_about_half_the_time() -> None:

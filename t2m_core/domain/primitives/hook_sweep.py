@@ -243,22 +243,20 @@ class HookSweep(Primitive):
         :func:`~t2m_core.domain.primitives.sweep_screen.sweep_disturbs`), whatever else the screen
         would say of it. A prediction from the domain's geometry, not a result."""
         physical = np.asarray(physical, dtype=np.float64)
-        return self.in_the_way_of_states([state], arguments, physical, np.zeros(len(physical), dtype=np.int64))
+        return self.screen_of_states([state], arguments, physical, np.zeros(len(physical), dtype=np.int64))["in_the_way"]
 
-    def in_the_way_of_states(
+    def screen_of_states(
         self, states: Sequence[GeometricState], arguments: Sequence[str], physical: np.ndarray, state_of: np.ndarray
-    ) -> np.ndarray:
-        """:meth:`in_the_way` of ``(B, 4)`` physical actions, action b taken in ``states[state_of[b]]``,
-        judged as one batch: a planner's samples, each in its own predicted state. The states hold
-        the same objects; an object's geometry is computed once per distinct pose."""
+    ) -> dict[str, np.ndarray]:
+        """Two predictions for ``(B, 4)`` physical actions, action b taken in ``states[state_of[b]]``,
+        judged as one batch (a planner's samples, each in its own predicted state): ``"in_the_way"``
+        (:meth:`in_the_way`) and ``"unreachable"`` (the EE leaves the arm's reach:
+        :func:`~t2m_core.domain.primitives.sweep_screen.unreachable`), each ``(B,)`` bool. The states
+        hold the same objects; an object's geometry is computed once per distinct pose."""
         arguments = self.check_arguments(states[0], arguments)
         target, hook = arguments[0], arguments[1]
         state_of = np.asarray(state_of, dtype=np.int64)
         geometry = _memo_geometry()
-        obstacles = [obstacle_footprints(bystanders(state, arguments, geometry)) for state in states]  # (N, K_s, 2) each
-        if obstacles[0].shape[0] == 0:
-            return np.zeros(len(physical), dtype=bool)
-        obstacles = _pad_vertices(obstacles)[state_of]  # (B, N, K, 2)
         footprints = _pad_vertices([geometry(target, state.objects[target]).footprints[0] for state in states])[state_of]
         poses = [(state.objects[target].position[:2], state.objects[hook].position, state.objects[hook].quaternion,
                   state.ee_position, state.ee_quaternion) for state in states]
@@ -269,7 +267,13 @@ class HookSweep(Primitive):
             np.stack((sweeps.reach_position[:, :2], sweeps.end_position[:, :2]), axis=1),
             along_head_normal=self.deflects_target, into_crook=not self.deflects_target,
         )
-        return sweep_disturbs(prediction, hook_obstacles=obstacles, target_obstacles=obstacles, hand_obstacles=obstacles)
+        obstacles = [obstacle_footprints(bystanders(state, arguments, geometry)) for state in states]  # (N, K_s, 2) each
+        if obstacles[0].shape[0] == 0:
+            in_the_way = np.zeros(len(state_of), dtype=bool)
+        else:
+            obstacles = _pad_vertices(obstacles)[state_of]  # (B, N, K, 2)
+            in_the_way = sweep_disturbs(prediction, hook_obstacles=obstacles, target_obstacles=obstacles, hand_obstacles=obstacles)
+        return {"in_the_way": in_the_way, "unreachable": unreachable(prediction)}
 
     deflects_target: bool = False
     """Whether the swept box slides along the head's normal (Push) rather than following the sweep,

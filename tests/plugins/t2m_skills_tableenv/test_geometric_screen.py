@@ -62,30 +62,30 @@ def test_rows_name_every_object_by_its_shape() -> None:
 def test_the_screen_sees_a_neighbour_along_the_jaw_from_the_rows() -> None:
     actions = actions_of(ACROSS_Y, ACROSS_X)
     near, clear = neighbour_scene(0.003), neighbour_scene(0.008)
-    assert screen_flags("pick", np.repeat(skill_rows(near, ["red_box"]), 2, axis=0), actions).tolist() == [True, False]
-    assert screen_flags("pick", np.repeat(skill_rows(clear, ["red_box"]), 2, axis=0), actions).tolist() == [False, False]
+    assert screen_flags("pick", np.repeat(skill_rows(near, ["red_box"]), 2, axis=0), actions)[:, 0].tolist() == [True, False]
+    assert screen_flags("pick", np.repeat(skill_rows(clear, ["red_box"]), 2, axis=0), actions)[:, 0].tolist() == [False, False]
     # the other objects' order does not matter, and distinct states in one batch are screened apart
     shuffled = skill_rows(near, ["red_box"], permutation=(3, 1, 0, 2))
     mixed = np.concatenate((shuffled, skill_rows(clear, ["red_box"]), shuffled))
-    assert screen_flags("pick", mixed, actions_of(ACROSS_Y, ACROSS_Y, ACROSS_X)).tolist() == [True, False, False]
+    assert screen_flags("pick", mixed, actions_of(ACROSS_Y, ACROSS_Y, ACROSS_X))[:, 0].tolist() == [True, False, False]
 
 
 def test_every_action_of_a_call_the_primitive_refuses_is_in_the_way() -> None:
     # the invalid split's pairs: the table's all-zero row or the rack as Pick's argument
     state = neighbour_scene(0.05)
     refused = np.concatenate((skill_rows(state, ["table"]), skill_rows(state, ["rack"])))
-    assert screen_flags("pick", refused, actions_of(ACROSS_X, ACROSS_X)).tolist() == [True, True]
+    assert screen_flags("pick", refused, actions_of(ACROSS_X, ACROSS_X))[:, 0].tolist() == [True, True]
 
 
 def test_an_unknown_shape_is_named_and_left_unscreened_and_an_unknown_skill_named() -> None:
     rows = skill_rows(neighbour_scene(0.05), ["red_box"])
     near = skill_rows(neighbour_scene(0.003), ["red_box"])
-    assert screen_flags("pick", near, actions_of(ACROSS_Y)).tolist() == [True]
+    assert screen_flags("pick", near, actions_of(ACROSS_Y))[:, 0].tolist() == [True]
     near[0, 5, 8] = 0.09  # the blue box 9 cm tall: no object of the world
     with pytest.raises(ValueError, match="match no object of the world"):
         row_objects(near[0])
-    assert screen_flags("pick", near, actions_of(ACROSS_Y)).tolist() == [False]  # no prediction for it
-    with pytest.raises(KeyError, match="no geometric screen for skill 'stop'"):
+    assert screen_flags("pick", near, actions_of(ACROSS_Y))[:, 0].tolist() == [False]  # no prediction for it
+    with pytest.raises(ValueError, match="no geometric screen for skill 'stop'"):
         screen_flags("stop", rows, actions_of(ACROSS_Y))
     with pytest.raises(ValueError, match="no geometric screen for skill 'stop'"):
         GeometricQEnsemble("stop")
@@ -109,7 +109,7 @@ def test_a_geometric_ensemble_reads_the_screen_it_computes_or_is_given() -> None
     torch.testing.assert_close(network(states, actions), network(states, actions, computed), rtol=0, atol=0)
     assert not torch.allclose(network(states, actions, computed), network(states, actions, ~computed))
     # member-specific inputs (bootstrapped batches) take a screen per member
-    members = network(states.expand(8, -1, -1), actions.expand(8, -1, -1), computed.expand(8, -1))
+    members = network(states.expand(8, -1, -1), actions.expand(8, -1, -1), computed.expand(8, -1, -1))
     torch.testing.assert_close(members, network(states, actions, computed))
 
 
@@ -158,4 +158,12 @@ def test_the_sweep_screen_sees_a_bystander_on_a_pull_from_the_rows() -> None:
     aside = holding_hook((0.8, 0.0), grasp_x=-0.1, rack=False, red_box=on_table("red_box", 0.45, -0.35))
     for state, expected in ((BLOCKED_PULL, True), (aside, False), (PULL_SCENE, False)):
         rows = np.repeat(skill_rows(state, list(PULL_ARGS), permutation=None), 3, axis=0)
-        assert screen_flags("pull", rows, draws).tolist() == [expected] * 3
+        assert screen_flags("pull", rows, draws)[:, 0].tolist() == [expected] * 3
+    # the pull's second prediction: the box too far for the arm (the domain's sweep test), read from the rows
+    far = holding_hook((1.0, 0.3), grasp_x=-0.1, rack=False)
+    rows = np.concatenate((skill_rows(far, list(PULL_ARGS)), skill_rows(PULL_SCENE, list(PULL_ARGS))))
+    flags = screen_flags("pull", rows, draws[:2])
+    assert flags.shape == (2, 2) and flags[:, 1].tolist() == [True, False]
+    assert screen_flags("pull", rows, draws[:2], ("in_the_way",)).shape == (2, 1)
+    with pytest.raises(ValueError, match="pick's screen predicts in_the_way; asked for unreachable"):
+        GeometricQEnsemble("pick", features=("unreachable",))
