@@ -136,6 +136,11 @@ def test_training_learns_what_the_screen_predicts(tmp_path) -> None:
 
 
 def test_a_geometric_checkpoint_round_trips_and_other_skills_are_refused(tmp_path) -> None:
+    pull = q_architecture("pull", "geometric")
+    assert pull["input"] == 102 and pull["screen"] == ["in_the_way", "unreachable"]
+    assert build_q(pull).features == ("in_the_way", "unreachable")
+    # the first geometric checkpoints (Pick) name their one prediction as a string
+    assert build_q({**q_architecture("pick", "geometric"), "screen": "in_the_way"}).features == ("in_the_way",)
     architecture = q_architecture("pick", "geometric")
     assert architecture["input"] == 101 and architecture["skill"] == "pick"
     torch.manual_seed(1)
