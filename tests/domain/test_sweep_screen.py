@@ -11,7 +11,6 @@ import pytest
 from t2m_core.data.scenes import draw_data_task
 from t2m_core.domain.primitives import PRIMITIVES
 from t2m_core.domain.primitives.hook_sweep import SCREEN_DRAWS, sweep_poses
-from t2m_core.domain.primitives.sweep_screen import predict_sweep
 from t2m_core.domain.sampling import sample_initial_state
 from t2m_core.domain.state import GeometricState
 from tests.domain.scenes import RACK_BEYOND, on_table, scene
@@ -48,10 +47,7 @@ def push(r_push: float, y: float) -> np.ndarray:
 
 def test_prediction_moves_the_box_with_the_head_after_the_gap() -> None:
     poses = sweep_poses(PULL_SCENE, "blue_box", "hook", *pull(-0.3, -0.03)[:, None])  # a batch of one
-    prediction = predict_sweep(
-        PULL_SCENE, "blue_box", "hook", poses.hook_reach, poses.hook_end, poses.hook_yaw,
-        np.stack((poses.reach_position[:, :2], poses.end_position[:, :2]), axis=1),
-    )
+    prediction = PULL.predict(PULL_SCENE, PULL_ARGS, pull(-0.3, -0.03)[None])
     (moved,) = prediction.target_shift
     # Straight towards the base, a little less than the 0.3 m sweep (the head first closes its gap).
     assert moved[1] == pytest.approx(0.0, abs=1e-9)

@@ -22,7 +22,6 @@ from t2m_core.domain.primitives.sweep_screen import (
     bystanders,
     lands_on_target,
     obstacle_footprints,
-    predict_sweep,
     predict_sweeps,
     sweep_disturbs,
     unreachable,
@@ -222,19 +221,35 @@ class HookSweep(Primitive):
         return verdicts.reasons
 
     def predict(self, state: GeometricState, arguments: Sequence[str], physical: np.ndarray) -> SweepPrediction:
-        """The predicted sweeps of ``(B, 4)`` physical actions (:func:`~t2m_core.domain.primitives.sweep_screen.predict_sweep`)."""
+        """The predicted sweeps of ``(B, 4)`` physical actions (:func:`~t2m_core.domain.primitives.sweep_screen.predict_sweeps`)."""
+        physical = np.asarray(physical, dtype=np.float64)
+        return self._predict_of_states([state], arguments, physical, np.zeros(len(physical), dtype=np.int64), _memo_geometry())
+
+    def _predict_of_states(
+        self,
+        states: Sequence[GeometricState],
+        arguments: Sequence[str],
+        physical: np.ndarray,
+        state_of: np.ndarray,
+        geometry: Callable[[str, ObjectPose], ObjectGeometry],
+    ) -> SweepPrediction:
+        """The sweeps of ``(B, 4)`` physical actions, action b in ``states[state_of[b]]``: the target's
+        footprint and position each draw's own, or shared by all draws of a single state (what
+        :class:`~t2m_core.domain.primitives.sweep_screen.Verdicts` take)."""
         target, hook = arguments[0], arguments[1]
-        poses = sweep_poses(state, target, hook, *np.asarray(physical, dtype=np.float64).T)
-        return predict_sweep(
-            state,
-            target,
-            hook,
-            poses.hook_reach,
-            poses.hook_end,
-            poses.hook_yaw,
-            np.stack((poses.reach_position[:, :2], poses.end_position[:, :2]), axis=1),
-            along_head_normal=self.deflects_target,
-            into_crook=not self.deflects_target,
+
+        def per_draw(values: Sequence[np.ndarray]) -> np.ndarray:
+            return np.asarray(values[0]) if len(states) == 1 else np.asarray(values)[state_of]
+
+        footprints = per_draw(_pad_vertices([geometry(target, state.objects[target]).footprints[0] for state in states]))
+        poses = [(state.objects[target].position[:2], state.objects[hook].position, state.objects[hook].quaternion,
+                  state.ee_position, state.ee_quaternion) for state in states]
+        target_xy, hook_position, hook_quaternion, ee_position, ee_quaternion = (per_draw(column) for column in zip(*poses, strict=True))
+        sweeps = batched_sweep_poses(target_xy, hook_position, hook_quaternion, ee_position, ee_quaternion, *np.asarray(physical, dtype=np.float64).T)
+        return predict_sweeps(
+            footprints, target_xy, object_spec(hook), sweeps.hook_reach, sweeps.hook_end, sweeps.hook_yaw,
+            np.stack((sweeps.reach_position[:, :2], sweeps.end_position[:, :2]), axis=1),
+            along_head_normal=self.deflects_target, into_crook=not self.deflects_target,
         )
 
     def in_the_way(self, state: GeometricState, arguments: Sequence[str], physical: np.ndarray) -> np.ndarray:
@@ -254,19 +269,9 @@ class HookSweep(Primitive):
         :func:`~t2m_core.domain.primitives.sweep_screen.unreachable`), each ``(B,)`` bool. The states
         hold the same objects; an object's geometry is computed once per distinct pose."""
         arguments = self.check_arguments(states[0], arguments)
-        target, hook = arguments[0], arguments[1]
         state_of = np.asarray(state_of, dtype=np.int64)
         geometry = _memo_geometry()
-        footprints = _pad_vertices([geometry(target, state.objects[target]).footprints[0] for state in states])[state_of]
-        poses = [(state.objects[target].position[:2], state.objects[hook].position, state.objects[hook].quaternion,
-                  state.ee_position, state.ee_quaternion) for state in states]
-        target_xy, hook_position, hook_quaternion, ee_position, ee_quaternion = (np.array(column)[state_of] for column in zip(*poses, strict=True))
-        sweeps = batched_sweep_poses(target_xy, hook_position, hook_quaternion, ee_position, ee_quaternion, *np.asarray(physical, dtype=np.float64).T)
-        prediction = predict_sweeps(
-            footprints, target_xy, object_spec(hook), sweeps.hook_reach, sweeps.hook_end, sweeps.hook_yaw,
-            np.stack((sweeps.reach_position[:, :2], sweeps.end_position[:, :2]), axis=1),
-            along_head_normal=self.deflects_target, into_crook=not self.deflects_target,
-        )
+        prediction = self._predict_of_states(states, arguments, physical, state_of, geometry)
         obstacles = [obstacle_footprints(bystanders(state, arguments, geometry)) for state in states]  # (N, K_s, 2) each
         if obstacles[0].shape[0] == 0:
             in_the_way = np.zeros(len(state_of), dtype=bool)

@@ -124,36 +124,6 @@ def unit(vectors: np.ndarray) -> np.ndarray:
     return vectors / np.maximum(np.linalg.norm(vectors, axis=-1), 1e-12)[..., None]
 
 
-def predict_sweep(
-    state: GeometricState,
-    target: str,
-    hook: str,
-    hook_reach: np.ndarray,
-    hook_end: np.ndarray,
-    hook_yaw: np.ndarray,
-    ee_path: np.ndarray,
-    *,
-    along_head_normal: bool = False,
-    into_crook: bool = False,
-) -> SweepPrediction:
-    """Predict the target's end pose for B sweeps: it moves with the hook once the head closes the gap to it.
-
-    Args:
-        hook_reach, hook_end: ``(B, 3)`` the hook's origin at the reach and the sweep end, metres.
-        hook_yaw: ``(B,)`` the hook's yaw during the sweep, radians.
-        ee_path: ``(B, 2, 2)`` EE xy at the reach and the sweep end.
-        along_head_normal: the box slides along the head's normal (Push) instead of following the
-            sweep (Pull).
-        into_crook: the box may also slide sideways into the crook, up to the handle (Pull).
-    """
-    target_pose = state.objects[target]
-    target_start = object_geometry(target, target_pose).footprints[0]
-    return predict_sweeps(
-        target_start, target_pose.position[:2], object_spec(hook), hook_reach, hook_end, hook_yaw, ee_path,
-        along_head_normal=along_head_normal, into_crook=into_crook,
-    )
-
-
 def predict_sweeps(
     target_start: np.ndarray,
     target_xy: np.ndarray,
@@ -166,8 +136,19 @@ def predict_sweeps(
     along_head_normal: bool = False,
     into_crook: bool = False,
 ) -> SweepPrediction:
-    """:func:`predict_sweep` from arrays: the target's ``(K, 2)`` footprint and ``(2,)`` xy now, shared
-    by the B sweeps, or ``(B, K, 2)`` and ``(B, 2)``, each sweep's own (other arguments as there)."""
+    """Predict the target's end pose for B sweeps: it moves with the hook once the head closes the gap to it.
+
+    Args:
+        target_start: ``(K, 2)`` the target's footprint now, shared by the B sweeps, or ``(B, K, 2)``,
+            each sweep's own; target_xy: its ``(2,)`` or ``(B, 2)`` position now, metres.
+        hook_spec: the hook's shape.
+        hook_reach, hook_end: ``(B, 3)`` the hook's origin at the reach and the sweep end, metres.
+        hook_yaw: ``(B,)`` the hook's yaw during the sweep, radians.
+        ee_path: ``(B, 2, 2)`` EE xy at the reach and the sweep end.
+        along_head_normal: the box slides along the head's normal (Push) instead of following the
+            sweep (Pull).
+        into_crook: the box may also slide sideways into the crook, up to the handle (Pull).
+    """
     hook_yaw = np.asarray(hook_yaw, dtype=np.float64)
     reach = yawed_footprints(hook_spec, hook_reach, hook_yaw)
     target_start = np.asarray(target_start, dtype=np.float64)
