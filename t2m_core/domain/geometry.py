@@ -342,11 +342,13 @@ def translation_hull(polygons: np.ndarray, shifts: np.ndarray) -> tuple[np.ndarr
 
 
 def pad_polygons(polygons: Sequence[np.ndarray]) -> np.ndarray:
-    """``(N, K, 2)`` the ``(K_i, 2)`` polygons stacked, each padded to the most vertices by repeating its
-    last one (a zero-length edge); ``(0, 1, 2)`` for none."""
-    size = max((len(polygon) for polygon in polygons), default=1)
-    padded = [np.concatenate((p, np.repeat(p[-1:], size - len(p), axis=0))) for p in polygons]
-    return np.array(padded, dtype=np.float64).reshape(len(polygons), size, 2)
+    """``(N, ..., K, 2)`` the ``(..., K_i, 2)`` polygons stacked, each padded to the most vertices by
+    repeating its last one (a zero-length edge); ``(0, 1, 2)`` for none."""
+    if len(polygons) == 0:
+        return np.zeros((0, 1, 2), dtype=np.float64)
+    polygons = [np.asarray(p, dtype=np.float64) for p in polygons]
+    size = max(p.shape[-2] for p in polygons)
+    return np.stack([np.concatenate((p, np.repeat(p[..., -1:, :], size - p.shape[-2], axis=-2)), axis=-2) for p in polygons])
 
 
 def penetration_depths(footprints: np.ndarray, regions: np.ndarray, directions: np.ndarray) -> np.ndarray:

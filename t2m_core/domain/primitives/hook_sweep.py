@@ -13,7 +13,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from t2m_core.domain.geometry import ObjectGeometry, object_geometry, quat_conjugate, quat_multiply, quat_yaw, rotate, yaw_to_quat
+from t2m_core.domain.geometry import (
+    ObjectGeometry,
+    object_geometry,
+    pad_polygons,
+    quat_conjugate,
+    quat_multiply,
+    quat_yaw,
+    rotate,
+    yaw_to_quat,
+)
 from t2m_core.domain.objects import object_spec
 from t2m_core.domain.primitives.base import Primitive
 from t2m_core.domain.primitives.sweep_screen import (
@@ -241,7 +250,7 @@ class HookSweep(Primitive):
         def per_draw(values: Sequence[np.ndarray]) -> np.ndarray:
             return np.asarray(values[0]) if len(states) == 1 else np.asarray(values)[state_of]
 
-        footprints = per_draw(_pad_vertices([geometry(target, state.objects[target]).footprints[0] for state in states]))
+        footprints = per_draw(pad_polygons([geometry(target, state.objects[target]).footprints[0] for state in states]))
         poses = [(state.objects[target].position[:2], state.objects[hook].position, state.objects[hook].quaternion,
                   state.ee_position, state.ee_quaternion) for state in states]
         target_xy, hook_position, hook_quaternion, ee_position, ee_quaternion = (per_draw(column) for column in zip(*poses, strict=True))
@@ -276,7 +285,7 @@ class HookSweep(Primitive):
         if obstacles[0].shape[0] == 0:
             in_the_way = np.zeros(len(state_of), dtype=bool)
         else:
-            obstacles = _pad_vertices(obstacles)[state_of]  # (B, N, K, 2)
+            obstacles = pad_polygons(obstacles)[state_of]  # (B, N, K, 2)
             in_the_way = sweep_disturbs(prediction, hook_obstacles=obstacles, target_obstacles=obstacles, hand_obstacles=obstacles)
         return {"in_the_way": in_the_way, "unreachable": unreachable(prediction)}
 
@@ -309,9 +318,3 @@ def _memo_geometry() -> Callable[[str, ObjectPose], ObjectGeometry]:
 
     return geometry
 
-
-def _pad_vertices(polygons: Sequence[np.ndarray]) -> np.ndarray:
-    """``(S, ..., K, 2)``: ``(..., K_s, 2)`` polygon arrays stacked, each padded to the most vertices by
-    repeating its last one (a zero-length edge, as :func:`~t2m_core.domain.geometry.pad_polygons`)."""
-    size = max(polygon.shape[-2] for polygon in polygons)
-    return np.stack([np.concatenate((p, np.repeat(p[..., -1:, :], size - p.shape[-2], axis=-2)), axis=-2) for p in polygons])

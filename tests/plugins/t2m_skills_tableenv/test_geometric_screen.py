@@ -9,13 +9,13 @@ import math
 import numpy as np
 import pytest
 import torch
+from t2m_skills_tableenv.checkpoints import load_q, save_weights, update_config
+from t2m_skills_tableenv.geometric_q import GeometricQEnsemble
+from t2m_skills_tableenv.geometric_screen import row_objects, screen_flags
+from t2m_skills_tableenv.networks import build_q, q_architecture
 
 from t2m_core.domain.observation import argument_first_order, encode_observation, normalize, unnormalize
 from t2m_core.domain.primitives import PRIMITIVES
-from t2m_skills_tableenv.checkpoints import load_q, save_weights, update_config
-from t2m_skills_tableenv.geometric_screen import row_objects, screen_flags
-from t2m_skills_tableenv.networks import build_q, q_architecture
-from t2m_skills_tableenv.geometric_q import GeometricQEnsemble
 from tests.domain.scenes import RACK_IN_WORKSPACE, on_table, scene
 
 PICK = PRIMITIVES["pick"]
