@@ -35,8 +35,6 @@ geometric``): every primitive's ``in_the_way``, and for the hook sweeps also ``u
 EE's path leaves the arm's reach: on the data scenes' Pull validation it predicts every pull the
 simulator ends ``unreachable`` and 3.8 % of the successes)."""
 SCREEN_SKILLS = tuple(SCREEN_FEATURES)
-_BATCHED_FEATURES = ("in_the_way", "unreachable")
-"""What a primitive with ``screen_of_states`` predicts (the others predict ``in_the_way`` alone)."""
 _NAMES = tuple(name for name, spec in OBJECTS.items() if spec.kind is not ObjectKind.TABLE)
 _SHAPES = np.array([OBJECTS[name].shape_features() for name in _NAMES], dtype=np.float64)  # (objects, 6)
 _SHAPE_TOLERANCE = 0.0015
@@ -78,7 +76,7 @@ def screen_features(skill: str, features: tuple[str, ...] | None = None) -> tupl
     if skill not in SCREEN_FEATURES:
         raise ValueError(f"no geometric screen for skill {skill!r} (known: {', '.join(SCREEN_SKILLS)})")
     features = SCREEN_FEATURES[skill] if features is None else tuple(features)
-    known = _BATCHED_FEATURES if hasattr(PRIMITIVES[skill], "screen_of_states") else ("in_the_way",)
+    known = getattr(PRIMITIVES[skill], "screen_predictions", ("in_the_way",))
     unknown = [name for name in features if name not in known]
     if unknown or not features:
         raise ValueError(f"{skill}'s screen predicts {', '.join(known)}; asked for {', '.join(unknown) or 'nothing'}")
@@ -93,9 +91,9 @@ def screen_flags(skill: str, rows: np.ndarray, actions: np.ndarray, features: tu
     prediction is true for a call the primitive refuses (the invalid split's ``pick(table)``:
     nothing it does can succeed), false for a state whose rows name no object of the world. States
     that repeat (a planner ranking many actions in one state) are decoded once; a primitive that
-    judges many states at once (Pull, Push: ``screen_of_states``) gets every state with the same
-    objects in one batch (a planner's samples, each in its own predicted state), the others one call
-    per distinct state.
+    judges many states at once (Pick, Pull, Push: ``screen_of_states``) gets every state with the
+    same objects in one batch (a planner's samples, each in its own predicted state), the others
+    (Place) one ``in_the_way`` call per distinct state.
 
     Raises:
         ValueError: a skill without a screen, or a prediction its primitive does not make.

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -451,6 +451,20 @@ def object_geometry(name: str, pose: ObjectPose, spec: ObjectSpec | None = None)
     aabb = np.stack((flat.min(axis=0), flat.max(axis=0)))
     footprints = tuple(convex_hull_2d(part[:, :2]) for part in corners)
     return ObjectGeometry(name, spec, pose.position, pose.quaternion, corners, aabb, footprints)
+
+
+def object_geometry_memo() -> Callable[[str, ObjectPose], ObjectGeometry]:
+    """:func:`object_geometry`, computed once per name and exact pose (for one batch of many states,
+    most of whose objects stand where they stood)."""
+    memo: dict[tuple[str, bytes, bytes], ObjectGeometry] = {}
+
+    def geometry(name: str, pose: ObjectPose) -> ObjectGeometry:
+        key = (name, np.asarray(pose.position, dtype=np.float64).tobytes(), np.asarray(pose.quaternion, dtype=np.float64).tobytes())
+        if key not in memo:
+            memo[key] = object_geometry(name, pose)
+        return memo[key]
+
+    return geometry
 
 
 def yawed_footprints(spec: ObjectSpec, positions: np.ndarray, yaws: np.ndarray) -> np.ndarray:

@@ -9,14 +9,21 @@ the fingertips. A prediction only; the simulator's contacts decide.
 
 from __future__ import annotations
 
-from collections.abc import Collection
+from collections.abc import Callable, Collection, Sequence
 
 import numpy as np
 
-from t2m_core.domain.geometry import object_geometry, pad_polygons, polygon_edges, quat_yaw, yawed_polygons
+from t2m_core.domain.geometry import (
+    ObjectGeometry,
+    object_geometry,
+    pad_polygons,
+    polygon_edges,
+    quat_yaw,
+    yawed_polygons,
+)
 from t2m_core.domain.objects import ObjectKind, object_spec
 from t2m_core.domain.primitives.sweep_screen import comes_near
-from t2m_core.domain.state import GeometricState
+from t2m_core.domain.state import GeometricState, ObjectPose
 from t2m_core.simulation.robot import FINGER_BODY_CENTER, FINGER_BODY_HALF, PAD_HALF
 
 FINGER_DEPTH = FINGER_BODY_CENTER[1] + FINGER_BODY_HALF[1]
@@ -48,19 +55,44 @@ def fingers_strike(state: GeometricState, spared: Collection[str], footprints: n
     """``(B,)`` whether the ``(B, 2, 4, 2)`` finger footprints, their tips at ``(B,)`` heights (m), come
     within :data:`FINGER_CLEARANCE` of a part of an object other than the table and ``spared`` that
     rises above the lowest fingertip."""
+    return fingers_strike_of_states([state], np.zeros(len(tips), dtype=np.int64), spared, footprints, tips)
+
+
+def fingers_strike_of_states(
+    states: Sequence[GeometricState],
+    state_of: np.ndarray,
+    spared: Collection[str],
+    footprints: np.ndarray,
+    tips: np.ndarray,
+    geometry: Callable[[str, ObjectPose], ObjectGeometry] = object_geometry,
+) -> np.ndarray:
+    """:func:`fingers_strike` of fingers b in ``states[state_of[b]]``, judged as one batch: a part
+    counts for a sample where it rises above the lowest fingertip of that sample's state."""
     edges = polygon_edges(footprints)
-    lowest = float(np.min(tips))
-    parts: dict[ObjectKind, list[np.ndarray]] = {kind: [] for kind in FINGER_CLEARANCE}
-    for name, pose in state.objects.items():
-        if name not in spared and object_spec(name).kind in parts:
-            geometry = object_geometry(name, pose)
-            rising = (corners[:, 2].max() > lowest for corners in geometry.part_corners)
-            parts[geometry.spec.kind] += [footprint for footprint, rises in zip(geometry.footprints, rising, strict=True) if rises]
+    lowest = np.full(len(states), np.inf)
+    np.minimum.at(lowest, state_of, np.asarray(tips, dtype=np.float64))
+    parts: dict[ObjectKind, list[list[np.ndarray]]] = {kind: [[] for _ in states] for kind in FINGER_CLEARANCE}
+    for index, (state, low) in enumerate(zip(states, lowest, strict=True)):
+        if low == np.inf:
+            continue  # no fingers in this state
+        for name, pose in state.objects.items():
+            if name not in spared and object_spec(name).kind in parts:
+                shape = geometry(name, pose)
+                rising = (corners[:, 2].max() > low for corners in shape.part_corners)
+                parts[shape.spec.kind][index] += [footprint for footprint, rises in zip(shape.footprints, rising, strict=True) if rises]
     struck = np.zeros(len(footprints), dtype=bool)
-    for kind, footprints_of_kind in parts.items():
-        if footprints_of_kind:
-            struck |= comes_near(footprints, edges, pad_polygons(footprints_of_kind), FINGER_CLEARANCE[kind])
+    for kind, per_state in parts.items():
+        most = max(len(of_state) for of_state in per_state)
+        if most == 0:
+            continue
+        # every state's parts, padded with polygons far beyond any clearance
+        padded = [pad_polygons(of_state + [_FAR] * (most - len(of_state))) for of_state in per_state]
+        struck |= comes_near(footprints, edges, pad_polygons(padded)[state_of], FINGER_CLEARANCE[kind])
     return struck
+
+
+_FAR = np.full((1, 2), 1.0e6)
+"""m: a stand-in part, a point no finger comes near."""
 
 
 def held_opening(state: GeometricState, held: str) -> float:

@@ -15,7 +15,7 @@ import numpy as np
 
 from t2m_core.domain.geometry import (
     ObjectGeometry,
-    object_geometry,
+    object_geometry_memo,
     pad_polygons,
     quat_conjugate,
     quat_multiply,
@@ -232,7 +232,7 @@ class HookSweep(Primitive):
     def predict(self, state: GeometricState, arguments: Sequence[str], physical: np.ndarray) -> SweepPrediction:
         """The predicted sweeps of ``(B, 4)`` physical actions (:func:`~t2m_core.domain.primitives.sweep_screen.predict_sweeps`)."""
         physical = np.asarray(physical, dtype=np.float64)
-        return self._predict_of_states([state], arguments, physical, np.zeros(len(physical), dtype=np.int64), _memo_geometry())
+        return self._predict_of_states([state], arguments, physical, np.zeros(len(physical), dtype=np.int64), object_geometry_memo())
 
     def _predict_of_states(
         self,
@@ -279,7 +279,7 @@ class HookSweep(Primitive):
         hold the same objects; an object's geometry is computed once per distinct pose."""
         arguments = self.check_arguments(states[0], arguments)
         state_of = np.asarray(state_of, dtype=np.int64)
-        geometry = _memo_geometry()
+        geometry = object_geometry_memo()
         prediction = self._predict_of_states(states, arguments, physical, state_of, geometry)
         obstacles = [obstacle_footprints(bystanders(state, arguments, geometry)) for state in states]  # (N, K_s, 2) each
         if obstacles[0].shape[0] == 0:
@@ -288,6 +288,9 @@ class HookSweep(Primitive):
             obstacles = pad_polygons(obstacles)[state_of]  # (B, N, K, 2)
             in_the_way = sweep_disturbs(prediction, hook_obstacles=obstacles, target_obstacles=obstacles, hand_obstacles=obstacles)
         return {"in_the_way": in_the_way, "unreachable": unreachable(prediction)}
+
+    screen_predictions: tuple[str, ...] = ("in_the_way", "unreachable")
+    """The predictions :meth:`screen_of_states` makes."""
 
     deflects_target: bool = False
     """Whether the swept box slides along the head's normal (Push) rather than following the sweep,
@@ -304,17 +307,4 @@ def hook_clearance(target: str, hook: str) -> tuple[float, float]:
     hook_spec, target_spec = object_spec(hook), object_spec(target)
     radius = hook_spec.hook.radius if hook_spec.hook is not None else 0.0
     return 0.5 * hook_spec.size[0], 2.0 * radius + 0.5 * float(np.linalg.norm(target_spec.size[:2]))
-
-
-def _memo_geometry() -> Callable[[str, ObjectPose], ObjectGeometry]:
-    """:func:`~t2m_core.domain.geometry.object_geometry`, computed once per name and exact pose."""
-    memo: dict[tuple[str, bytes, bytes], ObjectGeometry] = {}
-
-    def geometry(name: str, pose: ObjectPose) -> ObjectGeometry:
-        key = (name, np.asarray(pose.position, dtype=np.float64).tobytes(), np.asarray(pose.quaternion, dtype=np.float64).tobytes())
-        if key not in memo:
-            memo[key] = object_geometry(name, pose)
-        return memo[key]
-
-    return geometry
 

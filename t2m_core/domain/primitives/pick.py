@@ -7,7 +7,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from t2m_core.domain.constants import TABLE_Z_MAX, in_workspace
-from t2m_core.domain.geometry import quat_yaw, rotate, wrap_angle
+from t2m_core.domain.geometry import object_geometry_memo, quat_yaw, rotate, wrap_angle
 from t2m_core.domain.objects import ObjectKind, object_spec
 from t2m_core.domain.primitives.base import (
     SETTLE_TIMEOUT_S,
@@ -17,7 +17,7 @@ from t2m_core.domain.primitives.base import (
     lift_position,
     other_objects,
 )
-from t2m_core.domain.primitives.fingers import FINGERTIP_BELOW_EE, finger_footprints, fingers_strike
+from t2m_core.domain.primitives.fingers import FINGERTIP_BELOW_EE, finger_footprints, fingers_strike_of_states
 from t2m_core.domain.state import GeometricState
 from t2m_core.simulation.robot import FINGER_OPEN
 
@@ -61,16 +61,34 @@ class Pick(Primitive):
         that rises above the fingertips, such as the rack's plate beside a box
         (:func:`~t2m_core.domain.primitives.fingers.fingers_strike`). A prediction from the domain's
         geometry, not a result."""
-        (obj,) = self.check_arguments(state, arguments)
         physical = np.atleast_2d(np.asarray(physical, dtype=np.float64))
-        if self.precheck(state, arguments, physical[0]) is not None:  # the precheck reads the object, not the action
-            return np.ones(len(physical), dtype=bool)
-        pose = state.objects[obj]
-        grasps = pose.position + rotate(pose.quaternion, physical[:, :3])  # (B, 3)
-        tips = grasps[:, 2] - FINGERTIP_BELOW_EE
-        yaws = float(quat_yaw(pose.quaternion)) + physical[:, 3]
-        struck = fingers_strike(state, (obj,), finger_footprints(grasps, yaws, FINGER_OPEN), tips)
-        return struck | (tips < TABLE_Z_MAX + TABLE_MARGIN)
+        return self.screen_of_states([state], arguments, physical, np.zeros(len(physical), dtype=np.int64))["in_the_way"]
+
+    screen_predictions: tuple[str, ...] = ("in_the_way",)
+    """The predictions :meth:`screen_of_states` makes."""
+
+    def screen_of_states(
+        self, states: Sequence[GeometricState], arguments: Sequence[str], physical: np.ndarray, state_of: np.ndarray
+    ) -> dict[str, np.ndarray]:
+        """``{"in_the_way": (B,) bool}``: :meth:`in_the_way` of ``(B, 4)`` physical grasps, grasp b in
+        ``states[state_of[b]]``, judged as one batch (a planner's samples, each in its own predicted
+        state). The states hold the same objects; an object's geometry is computed once per distinct pose."""
+        (obj,) = self.check_arguments(states[0], arguments)
+        physical = np.atleast_2d(np.asarray(physical, dtype=np.float64))
+        state_of = np.asarray(state_of, dtype=np.int64)
+        # the precheck reads the object, not the action
+        refused = np.array([self.precheck(state, arguments, physical[0]) is not None for state in states])[state_of]
+        positions = np.array([state.objects[obj].position for state in states])[state_of]
+        quaternions = np.array([state.objects[obj].quaternion for state in states])[state_of]
+        in_the_way, live = refused.copy(), ~refused
+        if live.any():
+            grasps = positions[live] + rotate(quaternions[live], physical[live, :3])  # (L, 3)
+            tips = grasps[:, 2] - FINGERTIP_BELOW_EE
+            yaws = quat_yaw(quaternions[live]) + physical[live, 3]
+            fingers = finger_footprints(grasps, yaws, FINGER_OPEN)
+            struck = fingers_strike_of_states(states, state_of[live], (obj,), fingers, tips, object_geometry_memo())
+            in_the_way[live] = struck | (tips < TABLE_Z_MAX + TABLE_MARGIN)
+        return {"in_the_way": in_the_way}
 
     def grasp_bounds(self, arguments: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
         """``((4,), (4,))`` physical action bounds whose grasp point lies well on the object: for a
