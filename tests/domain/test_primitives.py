@@ -484,6 +484,12 @@ def test_pick_in_the_way_sees_fingers_on_the_rack_plate_a_neighbour_or_the_table
     far = scene(red_box=on_table("red_box", 0.72, 0.0))
     assert PICK.precheck(far, ["red_box"], _grasp()) == "not_in_workspace"
     assert PICK.in_the_way(far, ["red_box"], grasps).tolist() == [True, True]
+    # The same facts for grasps in several states at once (a plan step's samples): each its own state's.
+    states = [neighbour(0.003), scene(red_box=on_table("red_box", 0.5, 0.1), blue_box=on_table("blue_box", 0.5, 0.1 + 0.0664 + 0.025 + 0.008)),
+              scene(red_box=on_table("red_box", 0.72, 0.0), blue_box=on_table("blue_box", 0.3, 0.3))]
+    batch = np.array([_grasp(0.0), _grasp(0.0), _grasp(math.pi / 2), _grasp(0.0)])
+    judged = PICK.screen_of_states(states, ["red_box"], batch, np.array([0, 1, 0, 2]))["in_the_way"]
+    assert judged.tolist() == [True, False, False, True]
 
 
 def test_pick_grasp_bounds_keep_a_box_grasp_on_the_box() -> None:
