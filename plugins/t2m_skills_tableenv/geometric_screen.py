@@ -76,7 +76,7 @@ def screen_features(skill: str, features: tuple[str, ...] | None = None) -> tupl
     if skill not in SCREEN_FEATURES:
         raise ValueError(f"no geometric screen for skill {skill!r} (known: {', '.join(SCREEN_SKILLS)})")
     features = SCREEN_FEATURES[skill] if features is None else tuple(features)
-    known = getattr(PRIMITIVES[skill], "screen_predictions", ("in_the_way",))
+    known = PRIMITIVES[skill].screen_predictions
     unknown = [name for name in features if name not in known]
     if unknown or not features:
         raise ValueError(f"{skill}'s screen predicts {', '.join(known)}; asked for {', '.join(unknown) or 'nothing'}")
@@ -90,10 +90,9 @@ def screen_flags(skill: str, rows: np.ndarray, actions: np.ndarray, features: tu
     drives something into another object; ``"unreachable"``: the EE leaves the arm's reach. Every
     prediction is true for a call the primitive refuses (the invalid split's ``pick(table)``:
     nothing it does can succeed), false for a state whose rows name no object of the world. States
-    that repeat (a planner ranking many actions in one state) are decoded once; a primitive that
-    judges many states at once (Pick, Pull, Push: ``screen_of_states``) gets every state with the
-    same objects in one batch (a planner's samples, each in its own predicted state), the others
-    (Place) one ``in_the_way`` call per distinct state.
+    that repeat (a planner ranking many actions in one state) are decoded once, and every state with
+    the same objects goes to the primitive's ``screen_of_states`` in one batch (a planner's samples,
+    each in its own predicted state: Pick, Pull and Push judge it at once, Place once per state).
 
     Raises:
         ValueError: a skill without a screen, or a prediction its primitive does not make.
@@ -125,10 +124,6 @@ def screen_flags(skill: str, rows: np.ndarray, actions: np.ndarray, features: tu
         if _refuses(primitive, members[0][0], arguments):
             for _, mine in members:
                 flags[mine] = True
-            continue
-        if not hasattr(primitive, "screen_of_states"):
-            for state, mine in members:
-                flags[mine, 0] = primitive.in_the_way(state, arguments, physical[mine])
             continue
         samples = np.concatenate([mine for _, mine in members])
         state_of = np.repeat(np.arange(len(members)), [len(mine) for _, mine in members])

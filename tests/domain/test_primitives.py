@@ -454,6 +454,12 @@ def test_place_in_the_way_sees_the_held_object_set_down_against_another(holding:
     ahead = {**offset.objects, "cyan_box": on_table("cyan_box", 0.55, 0.3)}
     assert PLACE.in_the_way(GeometricState(beside, offset.ee_position, held="red_box"), ["red_box", "table"], release[None]).tolist() == [True]
     assert PLACE.in_the_way(GeometricState(ahead, offset.ee_position, held="red_box"), ["red_box", "table"], release[None]).tolist() == [False]
+    # Both states in one batch (the default screen_of_states: one in_the_way call per state), in any order.
+    states = [GeometricState(beside, offset.ee_position, held="red_box"), GeometricState(ahead, offset.ee_position, held="red_box")]
+    judged = PLACE.screen_of_states(states, ["red_box", "table"], np.stack([release] * 3), np.array([1, 0, 1]))
+    assert judged["in_the_way"].tolist() == [False, True, False]
+    with pytest.raises(NotImplementedError, match="stop makes no geometric prediction"):
+        STOP.in_the_way(holding, [], release[None])
 
 
 def _grasp(theta: float = 0.0, z: float = 0.0) -> np.ndarray:

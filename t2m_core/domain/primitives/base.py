@@ -251,6 +251,34 @@ class Primitive(ABC):
 
     # --- execution contract -----------------------------------------------------------------------
 
+    # --- geometric predictions --------------------------------------------------------------------
+
+    screen_predictions: tuple[str, ...] = ("in_the_way",)
+    """The predictions :meth:`screen_of_states` makes."""
+
+    def in_the_way(self, state: GeometricState, arguments: Sequence[str], physical: np.ndarray) -> np.ndarray:
+        """``(B,)`` whether each of ``(B, 4)`` physical actions is predicted to drive the gripper, a tool
+        or the carried object into another object. A prediction from the domain's geometry only.
+
+        Raises:
+            NotImplementedError: a primitive that makes no such prediction.
+        """
+        raise NotImplementedError(f"{self.name} makes no geometric prediction")
+
+    def screen_of_states(
+        self, states: Sequence[GeometricState], arguments: Sequence[str], physical: np.ndarray, state_of: np.ndarray
+    ) -> dict[str, np.ndarray]:
+        """The geometric predictions (:attr:`screen_predictions`) of ``(B, 4)`` physical actions, action b
+        taken in ``states[state_of[b]]`` (states holding the same objects), each ``(B,)`` bool. This
+        default asks :meth:`in_the_way` once per state; a primitive that can judges the batch at once."""
+        physical, state_of = np.asarray(physical, dtype=np.float64), np.asarray(state_of, dtype=np.int64)
+        flags = np.zeros(len(physical), dtype=bool)
+        order = np.argsort(state_of, kind="stable")
+        for state, mine in zip(states, np.split(order, np.cumsum(np.bincount(state_of, minlength=len(states)))[:-1]), strict=True):
+            if len(mine):
+                flags[mine] = self.in_the_way(state, arguments, physical[mine])
+        return {"in_the_way": flags}
+
     def precheck(self, state: GeometricState, arguments: Sequence[str], action: np.ndarray) -> str | None:
         """A failure reason that ends the primitive before any motion, or ``None``."""
         return None

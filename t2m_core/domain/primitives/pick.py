@@ -64,9 +64,6 @@ class Pick(Primitive):
         physical = np.atleast_2d(np.asarray(physical, dtype=np.float64))
         return self.screen_of_states([state], arguments, physical, np.zeros(len(physical), dtype=np.int64))["in_the_way"]
 
-    screen_predictions: tuple[str, ...] = ("in_the_way",)
-    """The predictions :meth:`screen_of_states` makes."""
-
     def screen_of_states(
         self, states: Sequence[GeometricState], arguments: Sequence[str], physical: np.ndarray, state_of: np.ndarray
     ) -> dict[str, np.ndarray]:

@@ -78,7 +78,7 @@ HANDLE, HEAD = 0, 1
 @dataclass(frozen=True)
 class SweepPrediction:
     """The geometry of B hook sweeps, predicted (world frame, metres): from one start state, or each
-    from its own (:meth:`~t2m_core.domain.primitives.hook_sweep.HookSweep.in_the_way_of_states`).
+    from its own (:meth:`~t2m_core.domain.primitives.hook_sweep.HookSweep.screen_of_states`).
 
     Attributes:
         hook_reach: ``(B, P, 4, 2)`` footprints of the hook's convex parts (handle, head) at the reach pose.
