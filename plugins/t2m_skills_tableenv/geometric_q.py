@@ -3,7 +3,7 @@
 The published ensemble must learn from the 96 state numbers alone that an open finger comes down on
 the hook lying beside a box: its data hold few such picks, and the shipped Pick ensemble calls about
 half of its validation collisions successes. The domain's geometry already predicts them
-(:func:`~t2m_skills_tableenv.geometric_screen.screen_flags`), so :class:`GeometricQEnsemble` gives
+(:func:`~t2m_skills_tableenv.geometric_screen.screen_values`), so :class:`GeometricQEnsemble` gives
 each member that prediction as one more input and lets it learn how far to trust it.
 """
 
@@ -14,9 +14,6 @@ import torch
 from t2m_core.domain.observation import FEATURES, OBSERVATION_ROWS, unnormalize
 from t2m_skills_tableenv.networks import ENSEMBLE_SIZE, HIDDEN, QEnsemble
 
-SCREEN_INPUT = 0.5
-"""Each prediction enters as +0.5 (predicted) or −0.5, the range of the normalised features."""
-
 
 class GeometricQEnsemble(QEnsemble):
     """``members`` MLPs ``(96 + 4 + F) → 256 → 256 → 1``: :class:`QEnsemble` with the skill's F
@@ -24,10 +21,11 @@ class GeometricQEnsemble(QEnsemble):
     more inputs.
 
     ``forward(states (N, 96), actions (N, 4), screen=None)`` returns the logits ``(N, B)``;
-    ``screen`` ``(N, F)`` bool is computed from the states and actions when not given (a trainer
-    passes the predictions for its dataset, computed once). Member-specific ``(B, N, 96)`` and
-    ``(B, N, 4)`` inputs take a ``(B, N, F)`` screen. The screen is a step function of the action:
-    the actor's gradient does not see it, a search over actions does.
+    ``screen`` ``(N, F)``, the inputs :meth:`screen` computes (flags ±0.5, margins scaled into
+    [−0.5, 0.5]: :func:`~t2m_skills_tableenv.geometric_screen.screen_inputs`), is computed from the
+    states and actions when not given (a trainer passes those of its dataset, computed once).
+    Member-specific ``(B, N, 96)`` and ``(B, N, 4)`` inputs take a ``(B, N, F)`` screen. The screen
+    is computed outside autograd: the actor's gradient does not see it, a search over actions does.
     """
 
     def __init__(
@@ -40,15 +38,16 @@ class GeometricQEnsemble(QEnsemble):
         self.skill, self.features = skill, features
 
     def screen(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
-        """``(..., F)`` bool: the geometric screen of normalised ``states (..., 96)`` and ``actions (..., 4)``."""
-        from t2m_skills_tableenv.geometric_screen import screen_flags
+        """``(..., F)`` the network inputs of the geometric screen of normalised ``states (..., 96)``
+        and ``actions (..., 4)``, in [−0.5, 0.5], the dtype of ``states``."""
+        from t2m_skills_tableenv.geometric_screen import screen_inputs, screen_values
 
         rows = unnormalize(states.detach().cpu().numpy().reshape(-1, OBSERVATION_ROWS, FEATURES))
-        flags = screen_flags(self.skill, rows, actions.detach().cpu().numpy().reshape(len(rows), -1), self.features)
-        return torch.from_numpy(flags).reshape(*states.shape[:-1], len(self.features)).to(states.device)
+        values = screen_values(self.skill, rows, actions.detach().cpu().numpy().reshape(len(rows), -1), self.features)
+        inputs = torch.from_numpy(screen_inputs(values, self.features))
+        return inputs.reshape(*states.shape[:-1], len(self.features)).to(device=states.device, dtype=states.dtype)
 
     def forward(self, states: torch.Tensor, actions: torch.Tensor, screen: torch.Tensor | None = None) -> torch.Tensor:
         if screen is None:
             screen = self.screen(states, actions)
-        flags = (screen.to(states.dtype) - 0.5) * (2.0 * SCREEN_INPUT)
-        return self._logits(torch.cat((states, actions, flags), dim=-1))
+        return self._logits(torch.cat((states, actions, screen.to(states.dtype)), dim=-1))

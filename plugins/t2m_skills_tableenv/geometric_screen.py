@@ -33,7 +33,16 @@ SCREEN_FEATURES: dict[str, tuple[str, ...]] = {
 """The predictions a skill's geometric Q-ensemble reads by default (``t2m train --q-network
 geometric``): every primitive's ``in_the_way``, and for the hook sweeps also ``unreachable`` (the
 EE's path leaves the arm's reach: on the data scenes' Pull validation it predicts every pull the
-simulator ends ``unreachable`` and 3.8 % of the successes)."""
+simulator ends ``unreachable`` and 3.8 % of the successes). ``--screen`` picks others, such as the
+hook sweeps' margins (:data:`MARGIN_SCALES`)."""
+MARGIN_SCALES: dict[str, float] = {"clearance": 0.05, "reach_margin": 0.05}
+"""Predictions that are margins in metres (the hook sweeps' ``clearance`` from the bystanders beyond
+the screen's own clearances, and ``reach_margin`` inside the arm's reach; negative where the flag
+is raised), and the margin that enters a network as ±0.5 (:func:`screen_inputs`). The others are
+flags."""
+REFUSED_MARGIN = -np.inf
+"""The margin of a call the primitive refuses (every flag raised); a state of no known world reads
+``+inf`` (no prediction: nothing in the way)."""
 SCREEN_SKILLS = tuple(SCREEN_FEATURES)
 _NAMES = tuple(name for name, spec in OBJECTS.items() if spec.kind is not ObjectKind.TABLE)
 _SHAPES = np.array([OBJECTS[name].shape_features() for name in _NAMES], dtype=np.float64)  # (objects, 6)
@@ -83,13 +92,15 @@ def screen_features(skill: str, features: tuple[str, ...] | None = None) -> tupl
     return features
 
 
-def screen_flags(skill: str, rows: np.ndarray, actions: np.ndarray, features: tuple[str, ...] | None = None) -> np.ndarray:
-    """``(N, F)`` bool: the primitive's geometric predictions ``features`` (default
+def screen_values(skill: str, rows: np.ndarray, actions: np.ndarray, features: tuple[str, ...] | None = None) -> np.ndarray:
+    """``(N, F)`` float64: the primitive's geometric predictions ``features`` (default
     :data:`SCREEN_FEATURES` of ``skill``) for ``(N, 8, 12)`` raw argument-first rows (row 0 the EE,
-    then the skill's arguments) and ``(N, 4)`` normalised actions. ``"in_the_way"``: the action
-    drives something into another object; ``"unreachable"``: the EE leaves the arm's reach. Every
-    prediction is true for a call the primitive refuses (the invalid split's ``pick(table)``:
-    nothing it does can succeed), false for a state whose rows name no object of the world. States
+    then the skill's arguments) and ``(N, 4)`` normalised actions: flags 1 / 0 (``"in_the_way"``:
+    the action drives something into another object; ``"unreachable"``: the EE leaves the arm's
+    reach), margins in metres (:data:`MARGIN_SCALES`). Every flag is raised and every margin
+    :data:`REFUSED_MARGIN` for a call the primitive refuses (the invalid split's ``pick(table)``:
+    nothing it does can succeed); a state whose rows name no object of the world gets no prediction
+    (flags 0, margins ``+inf``). States
     that repeat (a planner ranking many actions in one state) are decoded once, and every state with
     the same objects goes to the primitive's ``screen_of_states`` in one batch (a planner's samples,
     each in its own predicted state: Pick, Pull and Push judge it at once, Place once per state).
@@ -106,7 +117,8 @@ def screen_flags(skill: str, rows: np.ndarray, actions: np.ndarray, features: tu
     inverse = inverse.reshape(-1)
     # the samples of each distinct state, in order
     groups = np.split(np.argsort(inverse, kind="stable"), np.cumsum(np.bincount(inverse, minlength=len(unique)))[:-1])
-    flags = np.zeros((len(rows), len(features)), dtype=bool)
+    margins = np.array([name in MARGIN_SCALES for name in features])
+    values = np.where(margins, np.inf, 0.0)[None].repeat(len(rows), axis=0)
     groups_by_objects: dict[tuple[str | None, ...], list[tuple[GeometricState, np.ndarray]]] = {}
     for state_rows, mine in zip(unique.reshape(-1, OBSERVATION_ROWS, FEATURES), groups, strict=True):
         try:
@@ -123,13 +135,30 @@ def screen_flags(skill: str, rows: np.ndarray, actions: np.ndarray, features: tu
         arguments = names[:arity]
         if _refuses(primitive, members[0][0], arguments):
             for _, mine in members:
-                flags[mine] = True
+                values[mine] = np.where(margins, REFUSED_MARGIN, 1.0)
             continue
         samples = np.concatenate([mine for _, mine in members])
         state_of = np.repeat(np.arange(len(members)), [len(mine) for _, mine in members])
         predictions = primitive.screen_of_states([state for state, _ in members], arguments, physical[samples], state_of)
-        flags[samples] = np.stack([predictions[name] for name in features], axis=-1)
-    return flags
+        values[samples] = np.stack([predictions[name] for name in features], axis=-1)
+    return values
+
+
+def screen_flags(skill: str, rows: np.ndarray, actions: np.ndarray, features: tuple[str, ...] | None = None) -> np.ndarray:
+    """``(N, F)`` bool: :func:`screen_values` of flags only (``features`` without margins)."""
+    features = screen_features(skill, features)
+    if any(name in MARGIN_SCALES for name in features):
+        raise ValueError(f"screen_flags takes flags; {', '.join(name for name in features if name in MARGIN_SCALES)} are margins (screen_values)")
+    return screen_values(skill, rows, actions, features) > 0.5
+
+
+def screen_inputs(values: np.ndarray, features: tuple[str, ...]) -> np.ndarray:
+    """``(..., F)`` network inputs in [−0.5, 0.5] of ``(..., F)`` :func:`screen_values`: a flag
+    enters as ±0.5, a margin m as clip(m / scale, −1, 1) / 2 (:data:`MARGIN_SCALES`)."""
+    scales = np.array([MARGIN_SCALES.get(name, 0.0) for name in features])
+    values = np.asarray(values, dtype=np.float64)
+    margins = np.clip(values / np.where(scales > 0, scales, 1.0), -1.0, 1.0) / 2.0
+    return np.where(scales > 0, margins, values - 0.5)
 
 
 def _refuses(primitive: Primitive, state: GeometricState, arguments: tuple[str | None, ...]) -> bool:

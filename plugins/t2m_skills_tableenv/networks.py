@@ -176,16 +176,17 @@ class RelationalQEnsemble(nn.Module):
         return torch.sigmoid(self.forward(states, actions))
 
 
-def q_architecture(skill: str, network: str) -> dict[str, Any]:
+def q_architecture(skill: str, network: str, screen: tuple[str, ...] | None = None) -> dict[str, Any]:
     """The ``config.json`` architecture of ``skill``'s Q-ensemble of kind ``network`` (``"mlp"``,
     ``"relational"`` or ``"geometric"``; the relational network's context is the end effector and the
-    skill's arguments, the geometric network's extra input the skill's geometric screen)."""
+    skill's arguments, the geometric network's extra inputs the skill's geometric ``screen``
+    predictions, by default :data:`~t2m_skills_tableenv.geometric_screen.SCREEN_FEATURES`)."""
     if network == "mlp":
         return {"type": Q_NETWORKS["mlp"], "members": ENSEMBLE_SIZE, "input": 100, "hidden": list(HIDDEN), "output": "sigmoid", "loss": "bce"}
     if network == "geometric":
         from t2m_skills_tableenv.geometric_screen import screen_features
 
-        features = screen_features(skill)
+        features = screen_features(skill, screen)
         return {"type": Q_NETWORKS["geometric"], "skill": skill, "members": ENSEMBLE_SIZE, "input": 100 + len(features),
                 "hidden": list(HIDDEN), "screen": list(features), "output": "sigmoid", "loss": "bce"}
     from t2m_core.domain.primitives import get_primitive

@@ -76,6 +76,10 @@ class StageSettings(BaseModel):
         "as a set (docs/guide/skills.md#relational-q-ensemble), or the MLP that also reads the primitive's "
         "geometric screen (docs/guide/skills.md#geometric-q-ensemble)",
     )
+    screen: tuple[str, ...] | None = Field(
+        None, min_length=1, description="Q-ensemble only, geometric network: the screen predictions it reads, flags or margins "
+        "(docs/guide/skills.md#geometric-q-ensemble; None: the skill's default)",
+    )
     dynamics_network: Literal["mlp", "relational", "prior"] = Field(
         "mlp",
         description="dynamics only: the published residual MLP, the relational network that reads the other "
@@ -434,7 +438,7 @@ class DynamicsStage(Stage):
 
 
 def data_screen(network: nn.Module, data: SkillTensors) -> torch.Tensor | None:
-    """``(N, F)`` bool: a geometric ensemble's screen of the stored pairs of ``data``
+    """``(N, F)`` a geometric ensemble's screen inputs for the stored pairs of ``data``
     (:class:`~t2m_skills_tableenv.geometric_q.GeometricQEnsemble`); ``None`` for the other networks."""
     screen = getattr(network, "screen", None)
     return None if screen is None else screen(data.states(), data.actions)
@@ -617,7 +621,7 @@ ARCHITECTURES: dict[str, dict[str, Any]] = {
 def architecture(skill: str, model: str, settings: StageSettings) -> dict[str, Any]:
     """The ``config.json`` architecture of ``skill``'s ``model`` trained with ``settings``."""
     if model == "q":
-        return q_architecture(skill, settings.q_network)
+        return q_architecture(skill, settings.q_network, settings.screen)
     if model == "dynamics":
         return dynamics_architecture(skill, settings.dynamics_network)
     return ARCHITECTURES[model]
@@ -673,6 +677,7 @@ def train_skill(
     from t2m_skills_tableenv.checkpoints import load_weights
 
     settings = {model: _with_overrides(stage, overrides or {}) for model, stage in DEFAULT_SETTINGS.items()}
+    _check_screen(skill, settings["q"])
     anchor_dirs = tuple(Path(d) / skill / "train" for d in anchor)
     if anchor_dirs and (init_from is None or tuple(models) != ("q",)):
         # the policy and dynamics would otherwise train on the labelled splits alone
@@ -714,7 +719,7 @@ def train_skill(
             if anchor_states is not None:
                 anchor_data = Anchor(anchor_states, load_q(Path(init_from) / skill).eval(), stage_settings.anchor_weight)
             exposure = Exposure(SkillTensors.load(*exposure_dirs), stage_settings.exposure_weight) if exposure_dirs else None
-            network = build_q(q_architecture(skill, stage_settings.q_network))
+            network = build_q(architecture(skill, "q", stage_settings))
             stage: Stage = QStage(stage_train, validation, stage_settings, network, anchor_data, exposure, labelled=bool(labelled))
         elif model == "policy":
             q_ensemble = load_q(checkpoint)
@@ -723,7 +728,7 @@ def train_skill(
         else:
             if init_from is not None:
                 _require_same_dynamics(Path(init_from) / skill, stage_settings.dynamics_network)
-            stage = DynamicsStage(stage_train, validation, stage_settings, build_dynamics(dynamics_architecture(skill, stage_settings.dynamics_network)))
+            stage = DynamicsStage(stage_train, validation, stage_settings, build_dynamics(architecture(skill, "dynamics", stage_settings)))
         distilled = model == "q" and init_from is not None and _distills(Path(init_from) / skill, stage_settings.q_network, bool(anchor_dirs))
         if init_from is not None and not distilled:
             load_weights(Path(init_from) / skill / WEIGHT_FILES[model], stage.network)
@@ -782,6 +787,24 @@ def _require_same_dynamics(directory: Path, network: str) -> None:
             f"{directory} holds a {starting} dynamics model and the settings train a {network} one",
             f"fine-tune it with --dynamics-network {starting}, or train a {network} one without --init-from",
         )
+
+
+def _check_screen(skill: str, settings: StageSettings) -> None:
+    """Refuse screen predictions the network does not read or the skill's primitive does not make.
+
+    Raises:
+        T2MError: naming the problem and the choice.
+    """
+    from t2m_skills_tableenv.geometric_screen import screen_features
+
+    if settings.screen is None:
+        return
+    if settings.q_network != "geometric":
+        raise T2MError(f"--screen is read by the geometric Q-ensemble, not the {settings.q_network} one", "add --q-network geometric, or drop --screen")
+    try:
+        screen_features(skill, settings.screen)
+    except ValueError as error:
+        raise T2MError(str(error), "choose --screen among the predictions named") from None
 
 
 def _with_overrides(settings: StageSettings, overrides: dict[str, Any]) -> StageSettings:

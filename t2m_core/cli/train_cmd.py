@@ -55,6 +55,11 @@ def train(
         str | None,
         typer.Option("--q-network", help="Q-ensemble network: mlp (published), relational (reads the other objects as a set) or geometric (also reads the primitive's geometric screen)."),
     ] = None,
+    screen: Annotated[
+        str | None,
+        typer.Option("--screen", help="Geometric Q-ensemble: the screen predictions it reads, comma-separated (default: the skill's; "
+                     "pull and push also predict the margins clearance and reach_margin)."),
+    ] = None,
     dynamics_network: Annotated[
         str | None,
         typer.Option("--dynamics-network", help="Dynamics network: mlp (published), relational (reads the other objects as a set) or prior (corrects the primitive's geometric prediction)."),
@@ -123,7 +128,7 @@ def train(
     chosen = (
         ("steps", steps), ("eval_every", eval_every), ("learning_rate", learning_rate), ("train_size", train_size), ("ensemble_batches", ensemble_batches),
         ("selection_episodes", selection_episodes), ("q_network", q_network), ("dynamics_network", dynamics_network), ("anchor_weight", anchor_weight),
-        ("exposure_weight", exposure_weight), ("policy_targets", policy_targets), ("policy_target_sigma", policy_target_sigma),
+        ("exposure_weight", exposure_weight), ("policy_targets", policy_targets), ("screen", _names(screen)), ("policy_target_sigma", policy_target_sigma),
         ("policy_target_weight", policy_target_weight), ("policy_target_value", policy_target_value),
     )
     overrides = {key: value for key, value in chosen if value is not None}
@@ -133,6 +138,11 @@ def train(
                                              tuple(anchor or ()), tuple(ood_exposure or ()))
     if as_json:
         typer.echo(json.dumps(results, indent=2))
+
+
+def _names(listed: str | None) -> tuple[str, ...] | None:
+    """``"a,b"`` -> ``("a", "b")``; ``None`` stays ``None``."""
+    return None if listed is None else tuple(name.strip() for name in listed.split(",") if name.strip())
 
 
 def _train_with_progress(

@@ -9,6 +9,7 @@ import shutil
 
 import numpy as np
 import pytest
+from t2m_skills_tableenv.checkpoints import load_q
 from typer.testing import CliRunner
 
 from t2m_core.cli.main import app
@@ -236,3 +237,29 @@ def test_a_bad_rollout_skeleton_is_refused_before_any_work(tmp_path) -> None:
         assert problem in result.output and "Traceback" not in result.output
         assert "transitions/s" not in result.output  # refused before the progress bar, not by the first chunk
     assert not list((tmp_path / "out").rglob("*.safetensors"))
+
+
+def test_a_geometric_ensemble_trains_on_the_screen_predictions_chosen(tmp_path) -> None:
+    """``--screen`` picks the predictions the network reads (Pull's two margins here, not its default
+    flags): the trained checkpoint is that network; names the primitive does not predict, or a
+    network that reads no screen, are refused before any training."""
+    data = tmp_path / "data"
+    patch = pytest.MonkeyPatch()
+    patch.setattr(generate, "_WORKER_SIMULATORS", {("scripted", "[]"): ScriptedSimulator(lambda action: action[1] > 0.0)})
+    try:
+        for split, size, seed in (("train", 200, 1), ("validation", 100, 2)):
+            generate_dataset(DatasetJob(data, "pull", split, size, 100, base_seed=seed, sampler="uniform", simulator="scripted"))
+    finally:
+        patch.undo()
+    common = ["train", "--skill", "pull", "--model", "q", "--data", str(data), "--steps", "20", "--eval-every", "10"]
+    trained = runner.invoke(app, [*common, "--q-network", "geometric", "--screen", "clearance, reach_margin", "--out", str(tmp_path / "out")])
+    assert trained.exit_code == 0, trained.output
+    q = json.loads((tmp_path / "out" / "pull" / "config.json").read_text())["models"]["q"]
+    assert q["architecture"]["screen"] == ["clearance", "reach_margin"] and q["architecture"]["input"] == 102
+    assert q["training"]["screen"] == ["clearance", "reach_margin"]
+    assert load_q(tmp_path / "out" / "pull").features == ("clearance", "reach_margin")
+    unknown = runner.invoke(app, [*common, "--q-network", "geometric", "--screen", "in_the_way,tipped", "--out", str(tmp_path / "x")])
+    assert unknown.exit_code == 2 and "asked for tipped" in unknown.output and "clearance, reach_margin" in unknown.output
+    unread = runner.invoke(app, [*common, "--screen", "clearance", "--out", str(tmp_path / "x")])
+    assert unread.exit_code == 2 and "--q-network geometric" in unread.output
+    assert not (tmp_path / "x").exists()

@@ -9,8 +9,16 @@ import numpy as np
 import pytest
 
 from t2m_core.data.scenes import draw_data_task
+from t2m_core.domain.geometry import polygon_edges
 from t2m_core.domain.primitives import PRIMITIVES
 from t2m_core.domain.primitives.hook_sweep import SCREEN_DRAWS, sweep_poses
+from t2m_core.domain.primitives.sweep_screen import (
+    CLEARANCE_RANGE,
+    EE_MAX_RADIUS,
+    EE_MIN_RADIUS,
+    TOOL_CLEARANCE,
+    nearest_gaps,
+)
 from t2m_core.domain.sampling import sample_initial_state
 from t2m_core.domain.state import GeometricState
 from tests.domain.scenes import RACK_BEYOND, on_table, scene
@@ -217,6 +225,37 @@ def test_the_screen_of_many_states_judges_each_sample_in_its_own_state() -> None
     far = holding_hook((1.0, 0.3), grasp_x=-0.1, rack=False, red_box=on_table("red_box", 0.45, -0.35))
     reach = PULL.screen_of_states([aside, far], PULL_ARGS, np.array([pull(-0.4, -0.03), pull(-0.3, -0.03), pull(-0.3, -0.03)]), np.array([0, 0, 1]))
     assert reach["unreachable"].tolist() == [True, False, True]
+
+
+def test_the_margins_behind_the_flags_measure_the_sweep_in_metres() -> None:
+    """``clearance``: a bystander moved 1 cm further from the pull's path (its near edge parallel to
+    the path) clears it by 1 cm more, up to the range measured; ``reach_margin``: the EE's distance
+    inside the arm's annulus at the reach and the sweep end, from the sweep's own poses."""
+    draw = pull(-0.3, -0.03)[None]
+    clearances = []
+    for y in (0.19, 0.20, 0.21, 0.22, 0.30):
+        state = holding_hook((0.8, 0.0), grasp_x=-0.1, rack=False, red_box=on_table("red_box", 0.6, y))
+        clearances.append(float(PULL.screen_of_states([state], PULL_ARGS, draw, np.zeros(1, dtype=int))["clearance"][0]))
+    np.testing.assert_allclose(np.diff(clearances[:4]), 0.01, atol=1e-9)
+    assert 0.0 < clearances[0] < 0.01 and clearances[-1] == CLEARANCE_RANGE
+    aside = holding_hook((0.8, 0.0), grasp_x=-0.1, rack=False, red_box=on_table("red_box", 0.45, -0.35))
+    draws = np.array([pull(-0.3, -0.03), pull(-0.2, 0.0), pull(-0.3, 0.05), pull(-0.4, -0.03)])
+    judged = PULL.screen_of_states([BLOCKED_PULL, aside], PULL_ARGS, draws, np.array([0, 0, 1, 1]))
+    assert judged["clearance"].tolist()[:2] == [-TOOL_CLEARANCE] * 2  # the swept box runs into the red box
+    np.testing.assert_array_equal(judged["in_the_way"], judged["clearance"] < 0.0)
+    poses = sweep_poses(aside, "blue_box", "hook", *draws.T)
+    radii = np.linalg.norm(np.stack((poses.reach_position[:, :2], poses.end_position[:, :2])), axis=-1)  # (2, B)
+    np.testing.assert_allclose(judged["reach_margin"], np.minimum(EE_MAX_RADIUS - radii, radii - EE_MIN_RADIUS).min(axis=0))
+    assert judged["reach_margin"][3] < 0.0 and judged["unreachable"].tolist() == [False, False, False, True]
+
+
+def test_nearest_gaps_are_the_distances_to_the_nearest_obstacle_up_to_the_range() -> None:
+    square = np.array([[0.0, 0.0], [0.1, 0.0], [0.1, 0.1], [0.0, 0.1]])
+    obstacles = np.stack((square + [0.13, 0.0], square + [0.0, 0.12]))  # 3 cm and 2 cm away
+    regions = np.stack((square, square + [0.0, -0.5]))  # the second far from both
+    gaps = nearest_gaps(regions, polygon_edges(regions), obstacles, 0.05)
+    np.testing.assert_allclose(gaps, [0.02, 0.05])
+    assert nearest_gaps(regions, polygon_edges(regions), obstacles, 0.015).tolist() == [0.015, 0.015]
 
 
 def test_obstructed_sampler_sweeps_into_a_bystander_about_half_the_time() -> None:

@@ -26,13 +26,15 @@ from t2m_core.domain.geometry import (
 from t2m_core.domain.objects import object_spec
 from t2m_core.domain.primitives.base import Primitive
 from t2m_core.domain.primitives.sweep_screen import (
+    CLEARANCE_RANGE,
     SweepPrediction,
     Verdicts,
     bystanders,
     lands_on_target,
     obstacle_footprints,
     predict_sweeps,
-    sweep_disturbs,
+    reach_margin,
+    sweep_clearance,
     unreachable,
 )
 from t2m_core.domain.state import GeometricState, ObjectPose
@@ -272,24 +274,28 @@ class HookSweep(Primitive):
     def screen_of_states(
         self, states: Sequence[GeometricState], arguments: Sequence[str], physical: np.ndarray, state_of: np.ndarray
     ) -> dict[str, np.ndarray]:
-        """Two predictions for ``(B, 4)`` physical actions, action b taken in ``states[state_of[b]]``,
-        judged as one batch (a planner's samples, each in its own predicted state): ``"in_the_way"``
-        (:meth:`in_the_way`) and ``"unreachable"`` (the EE leaves the arm's reach:
-        :func:`~t2m_core.domain.primitives.sweep_screen.unreachable`), each ``(B,)`` bool. The states
-        hold the same objects; an object's geometry is computed once per distinct pose."""
+        """The predictions (:attr:`screen_predictions`) for ``(B, 4)`` physical actions, action b
+        taken in ``states[state_of[b]]``, judged as one batch (a planner's samples, each in its own
+        predicted state), each ``(B,)``: ``"in_the_way"`` (:meth:`in_the_way`), ``"unreachable"``
+        (the EE leaves the arm's reach: :func:`~t2m_core.domain.primitives.sweep_screen.unreachable`),
+        and the margins behind them in metres, ``"clearance"``
+        (:func:`~t2m_core.domain.primitives.sweep_screen.sweep_clearance` from the bystanders, up to
+        :data:`~t2m_core.domain.primitives.sweep_screen.CLEARANCE_RANGE`; negative where in the way)
+        and ``"reach_margin"`` (:func:`~t2m_core.domain.primitives.sweep_screen.reach_margin`). The
+        states hold the same objects; an object's geometry is computed once per distinct pose."""
         arguments = self.check_arguments(states[0], arguments)
         state_of = np.asarray(state_of, dtype=np.int64)
         geometry = object_geometry_memo()
         prediction = self._predict_of_states(states, arguments, physical, state_of, geometry)
         obstacles = [obstacle_footprints(bystanders(state, arguments, geometry)) for state in states]  # (N, K_s, 2) each
         if obstacles[0].shape[0] == 0:
-            in_the_way = np.zeros(len(state_of), dtype=bool)
+            clearance = np.full(len(state_of), CLEARANCE_RANGE)
         else:
             obstacles = pad_polygons(obstacles)[state_of]  # (B, N, K, 2)
-            in_the_way = sweep_disturbs(prediction, hook_obstacles=obstacles, target_obstacles=obstacles, hand_obstacles=obstacles)
-        return {"in_the_way": in_the_way, "unreachable": unreachable(prediction)}
+            clearance = sweep_clearance(prediction, hook_obstacles=obstacles, target_obstacles=obstacles, hand_obstacles=obstacles, within=CLEARANCE_RANGE)
+        return {"in_the_way": clearance < 0.0, "unreachable": unreachable(prediction), "clearance": clearance, "reach_margin": reach_margin(prediction)}
 
-    screen_predictions: tuple[str, ...] = ("in_the_way", "unreachable")
+    screen_predictions: tuple[str, ...] = ("in_the_way", "unreachable", "clearance", "reach_margin")
     """The predictions :meth:`screen_of_states` makes."""
 
     deflects_target: bool = False

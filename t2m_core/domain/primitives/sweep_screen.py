@@ -67,6 +67,10 @@ LANDING_CLEARANCE = 0.005
 HEAD_LANDING_DEPTH = 0.01
 """m: how deep the head's footprint may reach into the target's along the sweep at the reach pose."""
 
+CLEARANCE_RANGE = 0.05
+"""m: how far beyond :data:`TOOL_CLEARANCE` and :data:`HAND_CLEARANCE` the screen measures a
+sweep's clearance (:func:`sweep_clearance`) for the learned models that read it; farther is far."""
+
 END_MARGIN = 0.03
 """m: how far inside its success region the predicted end of the target must lie."""
 
@@ -225,6 +229,14 @@ def unreachable(prediction: SweepPrediction) -> np.ndarray:
     return ~np.all((radii >= EE_MIN_RADIUS) & (radii < EE_MAX_RADIUS), axis=-1)
 
 
+def reach_margin(prediction: SweepPrediction) -> np.ndarray:
+    """``(B,)`` metres the EE's path stays inside the annulus the arm reaches at table height (at the
+    reach and at the sweep end, the smaller of ``EE_MAX_RADIUS − r`` and ``r − EE_MIN_RADIUS``);
+    negative by as much as it leaves it (:func:`unreachable`)."""
+    radii = np.linalg.norm(prediction.ee_path, axis=-1)
+    return np.minimum(EE_MAX_RADIUS - radii, radii - EE_MIN_RADIUS).min(axis=-1)
+
+
 def lands_on_target(prediction: SweepPrediction) -> np.ndarray:
     """``(B,)`` whether the hook at the reach pose would come down on the target (``"tipped_over"``):
     its handle within :data:`LANDING_CLEARANCE` of the target's footprint, or its head more than
@@ -259,23 +271,43 @@ def sweep_disturbs(
 ) -> np.ndarray:
     """``(B,)`` whether the swept hook or the swept target comes within :data:`TOOL_CLEARANCE` of one
     of its obstacles, or the EE's path within :data:`HAND_CLEARANCE` of a hand obstacle
-    (``"disturbed"``). Obstacles are ``(N, K, 2)`` footprints (:func:`obstacle_footprints`)."""
+    (``"disturbed"``). Obstacles are ``(N, K, 2)`` footprints (:func:`obstacle_footprints`), or
+    ``(B, N, K, 2)``, each draw's own."""
+    return sweep_clearance(prediction, hook_obstacles=hook_obstacles, target_obstacles=target_obstacles, hand_obstacles=hand_obstacles) < 0.0
+
+
+def sweep_clearance(
+    prediction: SweepPrediction,
+    *,
+    hook_obstacles: np.ndarray,
+    target_obstacles: np.ndarray,
+    hand_obstacles: np.ndarray,
+    within: float = 0.0,
+) -> np.ndarray:
+    """``(B,)`` metres by which the swept hook and the swept target clear their obstacles beyond
+    :data:`TOOL_CLEARANCE`, and the EE's path its hand obstacles beyond :data:`HAND_CLEARANCE` (the
+    smallest of the three); negative where :func:`sweep_disturbs`. Measured up to ``within``: a
+    draw that clears everything by more reads ``within`` (the larger it is, the more pairs of region
+    and obstacle need an exact distance). Obstacles as :func:`sweep_disturbs` takes them."""
     still = np.zeros_like(prediction.sweep)
     hook = translation_hull(prediction.hook_reach, np.stack((still, prediction.sweep), axis=-2)[:, None])
     target_shifts = np.stack((still, prediction.target_shift, prediction.drift_shift), axis=-2)
     target = translation_hull(prediction.target_start, target_shifts)
     hand = (prediction.ee_path, prediction.ee_path[:, None])  # one segment
-    return (
-        comes_near(*hook, hook_obstacles, TOOL_CLEARANCE)
-        | comes_near(*target, target_obstacles, TOOL_CLEARANCE)
-        | comes_near(*hand, hand_obstacles, HAND_CLEARANCE)
-    )
+    regions = ((hook, hook_obstacles, TOOL_CLEARANCE), (target, target_obstacles, TOOL_CLEARANCE), (hand, hand_obstacles, HAND_CLEARANCE))
+    return np.min([nearest_gaps(*region, obstacles, clearance + within) - clearance for region, obstacles, clearance in regions], axis=0)
 
 
 def comes_near(points: np.ndarray, edges: np.ndarray, obstacles: np.ndarray, clearance: float) -> np.ndarray:
     """``(B,)`` whether any region of a draw (``(B, ..., M, 2)`` points, ``(B, ..., S, 2, 2)`` edges, as
     :func:`~t2m_core.domain.geometry.hull_distances` takes them) comes within ``clearance`` metres of
     any ``(N, K, 2)`` obstacle (or of its own: ``(B, N, K, 2)``, each draw's obstacles)."""
+    return nearest_gaps(points, edges, obstacles, clearance) < clearance
+
+
+def nearest_gaps(points: np.ndarray, edges: np.ndarray, obstacles: np.ndarray, within: float) -> np.ndarray:
+    """``(B,)`` the smallest distance from any region of a draw to any obstacle (arguments as
+    :func:`comes_near` takes them), metres; ``within`` where every one lies at least that far."""
     per_draw = obstacles.ndim == 4
     # Most regions are far from most obstacles: the gap between bounding boxes, which never exceeds
     # the distance, rules those pairs out before the exact test.
@@ -285,12 +317,12 @@ def comes_near(points: np.ndarray, edges: np.ndarray, obstacles: np.ndarray, cle
         region_axes = (slice(None),) + (None,) * (points.ndim - 3)
         obstacle_low, obstacle_high = obstacle_low[region_axes], obstacle_high[region_axes]
     gaps = np.maximum(0.0, np.maximum(obstacle_low - high, low - obstacle_high))  # (B, ..., N, 2)
-    *region, obstacle = np.nonzero(np.sum(gaps * gaps, axis=-1) < clearance**2)
-    near = np.zeros(len(points), dtype=bool)
+    *region, obstacle = np.nonzero(np.sum(gaps * gaps, axis=-1) < within**2)
+    nearest = np.full(len(points), float(within))
     candidates = obstacles[region[0], obstacle] if per_draw else obstacles[obstacle]
     distances = hull_distances(points[*region], edges[*region], candidates, polygon_edges(candidates))
-    near[region[0][distances < clearance]] = True
-    return near
+    np.minimum.at(nearest, region[0], distances)
+    return nearest
 
 
 def obstacle_footprints(geometries: Sequence[ObjectGeometry]) -> np.ndarray:

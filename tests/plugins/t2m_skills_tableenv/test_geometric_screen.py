@@ -105,9 +105,9 @@ def test_a_geometric_ensemble_reads_the_screen_it_computes_or_is_given() -> None
     network = GeometricQEnsemble("pick")
     states, actions = states_and_actions(16, 0)
     computed = network.screen(states, actions)
-    assert computed.any() and not computed.all()
+    assert set(computed.flatten().tolist()) == {-0.5, 0.5}  # a flag: ±0.5
     torch.testing.assert_close(network(states, actions), network(states, actions, computed), rtol=0, atol=0)
-    assert not torch.allclose(network(states, actions, computed), network(states, actions, ~computed))
+    assert not torch.allclose(network(states, actions, computed), network(states, actions, -computed))
     # member-specific inputs (bootstrapped batches) take a screen per member
     members = network(states.expand(8, -1, -1), actions.expand(8, -1, -1), computed.expand(8, -1, -1))
     torch.testing.assert_close(members, network(states, actions, computed))
@@ -172,3 +172,26 @@ def test_the_sweep_screen_sees_a_bystander_on_a_pull_from_the_rows() -> None:
     assert screen_flags("pull", rows, draws[:2], ("in_the_way",)).shape == (2, 1)
     with pytest.raises(ValueError, match="pick's screen predicts in_the_way; asked for unreachable"):
         GeometricQEnsemble("pick", features=("unreachable",))
+
+
+def test_pull_margins_read_from_the_rows_and_enter_the_network_scaled() -> None:
+    """The hand-placed pull (red box 2 cm further than the screen's clearance from the swept box,
+    tests/domain), read from its rows; a refused call reads every margin at its worst, a state of
+    no known world at its best; the network gets flags as ±0.5 and margins of ±5 cm as ±0.5."""
+    from t2m_skills_tableenv.geometric_screen import screen_inputs, screen_values
+
+    from tests.domain.test_sweep_screen import PULL_ARGS, holding_hook, pull
+
+    features = ("in_the_way", "clearance", "reach_margin")
+    draws = PRIMITIVES["pull"].to_normalized(np.array([pull(-0.3, -0.03)]))
+    beside = holding_hook((0.8, 0.0), grasp_x=-0.1, rack=False, red_box=on_table("red_box", 0.6, 0.2))
+    values = screen_values("pull", skill_rows(beside, list(PULL_ARGS)), draws, features)[0]
+    assert values[0] == 0.0 and values[1] == pytest.approx(0.0168, abs=1e-3) and 0.0 < values[2] < 0.1
+    refused = skill_rows(beside, ["blue_box", "red_box"])
+    assert screen_values("pull", refused, draws, features)[0].tolist() == [1.0, -np.inf, -np.inf]
+    unknown = skill_rows(beside, list(PULL_ARGS))
+    unknown[0, 3, 8] = 0.09  # no object of the world is this tall
+    assert screen_values("pull", unknown, draws, features)[0].tolist() == [0.0, np.inf, np.inf]
+    np.testing.assert_allclose(screen_inputs(np.array([[1.0, 0.025, -0.2], [0.0, np.inf, -np.inf]]), features), [[0.5, 0.25, -0.5], [-0.5, 0.5, -0.5]])
+    with pytest.raises(ValueError, match="clearance are margins"):
+        screen_flags("pull", refused, draws, ("in_the_way", "clearance"))
