@@ -4,14 +4,15 @@ Each primitive predicts from the domain's geometry alone whether an action drive
 hook or the carried object into another object (``in_the_way``: for Pick, an open finger coming down
 on a part of a bystander that rises above the fingertips; for Place, the carried object set down
 against a bystander; for Pull and Push, the hook, the box or the hand swept through one).
-:func:`screen_flags` evaluates that prediction for skill states as the networks see them: raw
+Some also give the margins behind such flags, in metres (:data:`MARGIN_SCALES`).
+:func:`screen_values` evaluates the predictions for skill states as the networks see them: raw
 argument-first rows, the objects identified by their shape features (every object of the world has
-its own), so that a Q-ensemble can read it beside the state and the action without knowing the
+its own), so that a Q-ensemble can read them beside the state and the action without knowing the
 objects' names.
 
-A prediction, not a label: on the data scenes' validation transitions it flags 97 / 59 / 99.6 / 80 %
-of the collisions of Pick / Place / Pull / Push and 3.5 / 9.5 / 10 / 17.5 % of their successes, so the
-ensemble learns how far to trust it.
+A prediction, not a label: on the data scenes' validation transitions ``in_the_way`` flags 97 / 59 /
+99.6 / 80 % of the collisions of Pick / Place / Pull / Push and 3.5 / 9.5 / 10 / 17.5 % of their
+successes, so the ensemble learns how far to trust it.
 """
 
 from __future__ import annotations
@@ -35,11 +36,12 @@ geometric``): every primitive's ``in_the_way``, and for the hook sweeps also ``u
 EE's path leaves the arm's reach: on the data scenes' Pull validation it predicts every pull the
 simulator ends ``unreachable`` and 3.8 % of the successes). ``--screen`` picks others, such as the
 hook sweeps' margins (:data:`MARGIN_SCALES`)."""
-MARGIN_SCALES: dict[str, float] = {"clearance": 0.05, "reach_margin": 0.05}
-"""Predictions that are margins in metres (the hook sweeps' ``clearance`` from the bystanders beyond
-the screen's own clearances, and ``reach_margin`` inside the arm's reach; negative where the flag
-is raised), and the margin that enters a network as ±0.5 (:func:`screen_inputs`). The others are
-flags."""
+MARGIN_SCALES: dict[str, float] = {"clearance": 0.05, "reach_margin": 0.05, "support_gap": 0.02, "workspace_margin": 0.05}
+"""Predictions that are margins in metres, and the margin that enters a network as ±0.5
+(:func:`screen_inputs`): the hook sweeps' ``clearance`` from the bystanders beyond the screen's own
+clearances and ``reach_margin`` inside the arm's reach (negative where ``in_the_way`` or
+``unreachable``); Place's ``support_gap`` between the held object's lowest point and the target's
+surface at the release, and ``workspace_margin`` of the release. The others are flags."""
 REFUSED_MARGIN = -np.inf
 """The margin of a call the primitive refuses (every flag raised); a state of no known world reads
 ``+inf`` (no prediction: nothing in the way)."""

@@ -190,6 +190,12 @@ def in_workspace(x: float | np.ndarray, y: float | np.ndarray) -> bool | np.ndar
     return ZONES["inworkspace"].contains(x, y)
 
 
+def workspace_margin(x: float | np.ndarray, y: float | np.ndarray) -> float | np.ndarray:
+    """Metres a world xy position lies inside the workspace of :func:`in_workspace` (the smaller of
+    x − 0.40 and 0.70 − ‖(x, y)‖), negative by as much as it lies outside."""
+    return np.minimum(np.asarray(x) - WORKSPACE_X_MIN, WORKSPACE_RADIUS - np.hypot(x, y))
+
+
 def beyond_workspace(x: float | np.ndarray, y: float | np.ndarray) -> bool | np.ndarray:
     """‖(x, y)‖ ≥ 0.70, metres."""
     return ZONES["beyondworkspace"].contains(x, y)

@@ -462,6 +462,20 @@ def test_place_in_the_way_sees_the_held_object_set_down_against_another(holding:
         STOP.in_the_way(holding, [], release[None])
 
 
+def test_place_margins_measure_the_drop_to_the_support_and_the_workspace(holding: GeometricState) -> None:
+    # The held box's bottom hangs 0.089 m below the EE (0.40 − 0.37 + 0.118 / 2): released with the
+    # EE that high above the rack's plate it touches it, 9 mm lower it is pressed 9 mm into it.
+    on_rack = np.array([[0.0, 0.0, z, 0.0] for z in (0.089, 0.080, 0.100)])
+    judged = PLACE.screen_of_states([holding], ["red_box", "rack"], on_rack, np.zeros(3, dtype=int))
+    np.testing.assert_allclose(judged["support_gap"], [0.0, -0.009, 0.011], atol=1e-12)
+    # the rack's centre, (0.44, −0.33): 4 cm beyond the workspace's near edge x = 0.40, 0.55 m from the base
+    np.testing.assert_allclose(judged["workspace_margin"], 0.04, atol=1e-12)
+    near = PLACE.to_physical(_table_action(0.35, 0.35))  # 5 cm short of the near edge: the precheck refuses it
+    table = PLACE.screen_of_states([holding], ["red_box", "table"], near[None], np.zeros(1, dtype=int))
+    assert table["workspace_margin"][0] == pytest.approx(-0.05) and PLACE.precheck(holding, ["red_box", "table"], _table_action(0.35, 0.35)) == "not_in_workspace"
+    assert table["support_gap"][0] == pytest.approx(near[2] - 0.089)
+
+
 def _grasp(theta: float = 0.0, z: float = 0.0) -> np.ndarray:
     """The physical Pick action of a grasp at the object's centre, ``z`` metres up, jaw yawed ``theta``."""
     return np.array([0.0, 0.0, z, theta])

@@ -13,6 +13,7 @@ from t2m_core.domain.constants import (
     TABLE_Y_MIN,
     TABLE_Z_MAX,
     in_workspace,
+    workspace_margin,
 )
 from t2m_core.domain.geometry import (
     is_above,
@@ -118,6 +119,34 @@ class Place(Primitive):
         fingers = finger_footprints(release, release_yaw, held_opening(state, obj))
         struck = fingers_strike(state, arguments, fingers, release[:, 2] - FINGERTIP_BELOW_EE)
         return struck | comes_near(footprints, polygon_edges(footprints), obstacles, TOOL_CLEARANCE)
+
+    screen_predictions: tuple[str, ...] = ("in_the_way", "support_gap", "workspace_margin")
+    """The predictions :meth:`screen_of_states` makes."""
+
+    def screen_of_states(
+        self, states: Sequence[GeometricState], arguments: Sequence[str], physical: np.ndarray, state_of: np.ndarray
+    ) -> dict[str, np.ndarray]:
+        """The predictions (:attr:`screen_predictions`) for ``(B, 4)`` physical actions, action b taken
+        in ``states[state_of[b]]``, each ``(B,)``: ``"in_the_way"`` (:meth:`in_the_way`, once per
+        state), and two margins in metres: ``"support_gap"``, how far above the target's surface the
+        held object's lowest point is at the release (the object carried rigidly; the descent
+        touching the support fails, and the measured placements fail mostly below −1 mm), and
+        ``"workspace_margin"``, how far inside the workspace the release lies
+        (:func:`~t2m_core.domain.constants.workspace_margin`; outside, the precheck fails)."""
+        obj, target = self.check_arguments(states[0], arguments)
+        physical, state_of = np.asarray(physical, dtype=np.float64), np.asarray(state_of, dtype=np.int64)
+        predictions = super().screen_of_states(states, arguments, physical, state_of)
+        # per state: the target's pose and the EE's height above the held object's lowest point
+        lowest = np.array([state.ee_position[2] - object_geometry(obj, state.objects[obj]).aabb[0][2] for state in states])
+        release = np.empty((len(physical), 3))
+        for index, state in enumerate(states):
+            mine = state_of == index
+            if mine.any():
+                release[mine] = release_poses(state, target, physical[mine])[0]
+        surface = np.array([state.objects[target].position[2] for state in states])
+        predictions["support_gap"] = release[:, 2] - lowest[state_of] - surface[state_of]
+        predictions["workspace_margin"] = workspace_margin(release[:, 0], release[:, 1])
+        return predictions
 
     def precheck(self, state: GeometricState, arguments: Sequence[str], action: np.ndarray) -> str | None:
         obj, target = self.check_arguments(state, arguments)
