@@ -36,7 +36,9 @@ geometric``): every primitive's ``in_the_way``, and for the hook sweeps also ``u
 EE's path leaves the arm's reach: on the data scenes' Pull validation it predicts every pull the
 simulator ends ``unreachable`` and 3.8 % of the successes). ``--screen`` picks others, such as the
 hook sweeps' margins (:data:`MARGIN_SCALES`)."""
-MARGIN_SCALES: dict[str, float] = {"clearance": 0.05, "reach_margin": 0.05, "support_gap": 0.02, "workspace_margin": 0.05}
+MARGIN_SCALES: dict[str, float] = {
+    "clearance": 0.05, "reach_margin": 0.05, "under_depth": 0.1, "leg_clearance": 0.05, "support_gap": 0.02, "workspace_margin": 0.05,
+}
 """Predictions that are margins in metres, and the margin that enters a network as ±0.5
 (:func:`screen_inputs`): the hook sweeps' ``clearance`` from the bystanders beyond the screen's own
 clearances and ``reach_margin`` inside the arm's reach (negative where ``in_the_way`` or

@@ -249,6 +249,24 @@ def test_the_margins_behind_the_flags_measure_the_sweep_in_metres() -> None:
     assert judged["reach_margin"][3] < 0.0 and judged["unreachable"].tolist() == [False, False, False, True]
 
 
+def test_push_margins_follow_the_box_under_the_rack() -> None:
+    """``under_depth`` is below the screen's 2 cm band where it says ``not_under``, inside it where it
+    passes, beyond 12 cm where the box is driven into the far legs; once under, it grows with the
+    box's predicted travel. ``leg_clearance`` shrinks as the box goes deeper between the legs."""
+    lengths = (0.15, 0.2, 0.25, 0.3, 0.35)
+    draws = np.array([push(r_push, -0.03) for r_push in lengths])
+    judged = PUSH.screen_of_states([PUSH_SCENE], PUSH_ARGS, draws, np.zeros(len(draws), dtype=int))
+    verdicts = [PUSH.screen(PUSH_SCENE, PUSH_ARGS, draw) for draw in draws]
+    assert verdicts == ["not_under", "not_under", None, None, "disturbed"]
+    depth = judged["under_depth"]
+    assert depth[0] < 0.02 and depth[1] < 0.02 and 0.02 < depth[2] < depth[3] < 0.12 < depth[4]
+    travel = np.linalg.norm(PUSH.predict(PUSH_SCENE, PUSH_ARGS, draws).target_shift, axis=-1)
+    np.testing.assert_allclose(np.diff(depth[2:]), np.diff(travel[2:]), atol=1e-9)
+    legs = judged["leg_clearance"]
+    assert legs[0] == CLEARANCE_RANGE and np.all(np.diff(legs) <= 1e-12) and legs[-1] < CLEARANCE_RANGE
+    assert "under_depth" not in PULL.screen_of_states([PULL_SCENE], PULL_ARGS, pull(-0.3, -0.03)[None], np.zeros(1, dtype=int))
+
+
 def test_nearest_gaps_are_the_distances_to_the_nearest_obstacle_up_to_the_range() -> None:
     square = np.array([[0.0, 0.0], [0.1, 0.0], [0.1, 0.1], [0.0, 0.1]])
     obstacles = np.stack((square + [0.13, 0.0], square + [0.0, 0.12]))  # 3 cm and 2 cm away

@@ -293,10 +293,19 @@ class HookSweep(Primitive):
         else:
             obstacles = pad_polygons(obstacles)[state_of]  # (B, N, K, 2)
             clearance = sweep_clearance(prediction, hook_obstacles=obstacles, target_obstacles=obstacles, hand_obstacles=obstacles, within=CLEARANCE_RANGE)
-        return {"in_the_way": clearance < 0.0, "unreachable": unreachable(prediction), "clearance": clearance, "reach_margin": reach_margin(prediction)}
+        predictions = {"in_the_way": clearance < 0.0, "unreachable": unreachable(prediction), "clearance": clearance, "reach_margin": reach_margin(prediction)}
+        return predictions | self.sweep_margins(states, arguments, prediction, state_of, geometry)
 
     screen_predictions: tuple[str, ...] = ("in_the_way", "unreachable", "clearance", "reach_margin")
     """The predictions :meth:`screen_of_states` makes."""
+
+    def sweep_margins(
+        self, states: Sequence[GeometricState], arguments: Sequence[str], prediction: SweepPrediction, state_of: np.ndarray,
+        geometry: Callable[[str, ObjectPose], ObjectGeometry],
+    ) -> dict[str, np.ndarray]:
+        """The primitive's own margins of the predicted sweeps (:meth:`screen_of_states`), ``(B,)``
+        metres each, by name; none by default."""
+        return {}
 
     deflects_target: bool = False
     """Whether the swept box slides along the head's normal (Push) rather than following the sweep,

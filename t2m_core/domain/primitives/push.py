@@ -2,18 +2,19 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from functools import partial
 
 import numpy as np
 
 from t2m_core.domain.constants import D_PUSH
-from t2m_core.domain.geometry import is_under, object_geometry, penetration_depths
+from t2m_core.domain.geometry import ObjectGeometry, is_under, object_geometry, pad_polygons, penetration_depths
 from t2m_core.domain.objects import ObjectKind
 from t2m_core.domain.primitives.base import MotionKind, MotionStep, StepContext, lift_position, other_objects
 from t2m_core.domain.primitives.hook_sweep import HookSweep, hook_clearance, planar_distance
 from t2m_core.domain.primitives.pull import target_upright
 from t2m_core.domain.primitives.sweep_screen import (
+    CLEARANCE_RANGE,
     END_MARGIN,
     SweepPrediction,
     Verdicts,
@@ -21,16 +22,21 @@ from t2m_core.domain.primitives.sweep_screen import (
     face_meets_target,
     obstacle_footprints,
     rack_parts,
+    sweep_clearance,
     sweep_disturbs,
     unit,
 )
-from t2m_core.domain.state import GeometricState
+from t2m_core.domain.state import GeometricState, ObjectPose
 
 UNDER_DEPTH = (0.02, 0.12)
 """m: the screened sampler wants the box's predicted footprint this far inside the rack's along the
 push (:func:`~t2m_core.domain.geometry.penetration_depths`). Chosen on 370 measured task1
 pushes: 86 % of the pushes predicted in this band succeeded; shallower ones stay short of the rack,
 deeper ones drive the box or the hook into the far legs and move the rack."""
+
+
+LEGS = ("leg_0", "leg_1", "leg_2", "leg_3")
+"""The rack's parts a pushed box must clear (the space between them is open)."""
 
 
 class Push(HookSweep):
@@ -103,7 +109,7 @@ class Push(HookSweep):
         verdicts.check("not_under", lambda prediction: ~face_meets_target(prediction))
         rack = arguments[2]
         others = bystanders(state, arguments)
-        legs = rack_parts(state, rack, ("leg_0", "leg_1", "leg_2", "leg_3"))
+        legs = rack_parts(state, rack, LEGS)
         bystander_footprints = obstacle_footprints(others)
         verdicts.check(
             "disturbed",
@@ -119,6 +125,26 @@ class Push(HookSweep):
         verdicts.check("not_under", lambda prediction: _depth_under(prediction, rack_footprint) < UNDER_DEPTH[0])
         verdicts.check("disturbed", lambda prediction: _depth_under(prediction, rack_footprint) > UNDER_DEPTH[1])
 
+    screen_predictions: tuple[str, ...] = (*HookSweep.screen_predictions, "under_depth", "leg_clearance")
+    """The predictions :meth:`~t2m_core.domain.primitives.hook_sweep.HookSweep.screen_of_states` makes."""
+
+    def sweep_margins(
+        self, states: Sequence[GeometricState], arguments: Sequence[str], prediction: SweepPrediction, state_of: np.ndarray,
+        geometry: Callable[[str, ObjectPose], ObjectGeometry],
+    ) -> dict[str, np.ndarray]:
+        """Two margins of the push, metres: ``"under_depth"``, how far the box's predicted footprint
+        reaches into the rack's along the push (the screen wants :data:`UNDER_DEPTH`), and
+        ``"leg_clearance"``, how far the swept box clears the rack's legs beyond
+        :data:`~t2m_core.domain.primitives.sweep_screen.TOOL_CLEARANCE` (up to
+        :data:`~t2m_core.domain.primitives.sweep_screen.CLEARANCE_RANGE`): the rack is an argument,
+        so ``clearance`` does not see it, yet driving the box into a leg moves it."""
+        rack = arguments[2]
+        racks = pad_polygons([geometry(rack, state.objects[rack]).footprints[0] for state in states])[state_of]  # (B, K, 2)
+        legs = pad_polygons([obstacle_footprints(rack_parts(state, rack, LEGS)) for state in states])[state_of]  # (B, 4, K, 2)
+        none = legs[:, :0]
+        leg_clearance = sweep_clearance(prediction, hook_obstacles=none, target_obstacles=legs, hand_obstacles=none, within=CLEARANCE_RANGE)
+        return {"under_depth": _depth_under(prediction, racks), "leg_clearance": leg_clearance}
+
     def _pushed_too_little(self, prediction: SweepPrediction) -> np.ndarray:
         """``(B,)`` whether the box's predicted end is not d_Push + :data:`END_MARGIN` farther from the base."""
         start = np.linalg.norm(prediction.target_xy)
@@ -126,7 +152,8 @@ class Push(HookSweep):
 
 
 def _depth_under(prediction: SweepPrediction, rack_footprint: np.ndarray) -> np.ndarray:
-    """``(B,)`` how far the box's predicted footprint reaches into the rack's along its push, metres."""
+    """``(B,)`` how far the box's predicted footprint reaches into the rack's (``(K, 2)``, or each
+    draw's own, ``(B, K, 2)``) along its push, metres."""
     end_footprint = prediction.target_start + prediction.target_shift[:, None]
     return penetration_depths(end_footprint, rack_footprint, unit(prediction.target_shift))
 
