@@ -474,6 +474,13 @@ def test_place_margins_measure_the_drop_to_the_support_and_the_workspace(holding
     table = PLACE.screen_of_states([holding], ["red_box", "table"], near[None], np.zeros(1, dtype=int))
     assert table["workspace_margin"][0] == pytest.approx(-0.05) and PLACE.precheck(holding, ["red_box", "table"], _table_action(0.35, 0.35)) == "not_in_workspace"
     assert table["support_gap"][0] == pytest.approx(near[2] - 0.089)
+    # the held box set down 3 cm and 5 mm beside the cyan box (jaw across): it clears it by 2 cm
+    # beyond the 1 cm clearance, or comes 5 mm too near
+    half_widths = (OBJECTS["red_box"].size[1] + OBJECTS["cyan_box"].size[1]) / 2
+    beside = np.array([[*_table_action(0.6, 0.2 + half_widths + gap)[:2], 0.05, math.pi / 2] for gap in (0.03, 0.005)])  # physical
+    judged = PLACE.screen_of_states([holding], ["red_box", "table"], beside, np.zeros(2, dtype=int))
+    np.testing.assert_allclose(judged["clearance"], [0.02, -0.005], atol=1e-9)
+    assert judged["in_the_way"].tolist() == [False, True]
 
 
 def _grasp(theta: float = 0.0, z: float = 0.0) -> np.ndarray:

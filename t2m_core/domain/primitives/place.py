@@ -39,7 +39,13 @@ from t2m_core.domain.primitives.base import (
 )
 from t2m_core.domain.primitives.fingers import FINGERTIP_BELOW_EE, finger_footprints, fingers_strike, held_opening
 from t2m_core.domain.primitives.pick import MOVABLE
-from t2m_core.domain.primitives.sweep_screen import TOOL_CLEARANCE, bystanders, comes_near, obstacle_footprints
+from t2m_core.domain.primitives.sweep_screen import (
+    CLEARANCE_RANGE,
+    TOOL_CLEARANCE,
+    bystanders,
+    nearest_gaps,
+    obstacle_footprints,
+)
 from t2m_core.domain.state import GeometricState
 
 MAX_DROP_DISTANCE = 0.05
@@ -106,11 +112,20 @@ class Place(Primitive):
         pose relative to the EE now to the release pose, or bring the fingers closed on it down on
         a bystander (:func:`~t2m_core.domain.primitives.fingers.fingers_strike`). A prediction from
         the domain's geometry, not a result."""
+        struck, clearance = self._set_down(state, arguments, np.atleast_2d(np.asarray(physical, dtype=np.float64)))
+        return struck | (clearance < 0.0)
+
+    def _set_down(
+        self, state: GeometricState, arguments: Sequence[str], physical: np.ndarray, within: float = 0.0
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``((B,) bool, (B,) metres)`` for ``(B, 4)`` physical actions: whether the closed fingers come
+        down on a bystander, and how far the held object's footprint at the release clears the
+        bystanders beyond :data:`~t2m_core.domain.primitives.sweep_screen.TOOL_CLEARANCE`
+        (measured up to ``within``; negative where it comes nearer)."""
         obj, target = self.check_arguments(state, arguments)
-        physical = np.atleast_2d(np.asarray(physical, dtype=np.float64))
         obstacles = obstacle_footprints(bystanders(state, arguments))
         if len(obstacles) == 0:
-            return np.zeros(len(physical), dtype=bool)
+            return np.zeros(len(physical), dtype=bool), np.full(len(physical), float(within))
         release, release_yaw = release_poses(state, target, physical)
         held = state.objects[obj]
         positions, yaws = carried_poses(state.ee_position, quat_yaw(state.ee_quaternion), held.position, quat_yaw(held.quaternion), release, release_yaw)
@@ -118,35 +133,42 @@ class Place(Primitive):
         footprints = yawed_footprints(object_spec(obj), np.column_stack((positions, release[:, 2])), yaws)  # (B, P, 4, 2)
         fingers = finger_footprints(release, release_yaw, held_opening(state, obj))
         struck = fingers_strike(state, arguments, fingers, release[:, 2] - FINGERTIP_BELOW_EE)
-        return struck | comes_near(footprints, polygon_edges(footprints), obstacles, TOOL_CLEARANCE)
+        return struck, nearest_gaps(footprints, polygon_edges(footprints), obstacles, TOOL_CLEARANCE + within) - TOOL_CLEARANCE
 
-    screen_predictions: tuple[str, ...] = ("in_the_way", "support_gap", "workspace_margin")
+    screen_predictions: tuple[str, ...] = ("in_the_way", "clearance", "support_gap", "workspace_margin")
     """The predictions :meth:`screen_of_states` makes."""
 
     def screen_of_states(
         self, states: Sequence[GeometricState], arguments: Sequence[str], physical: np.ndarray, state_of: np.ndarray
     ) -> dict[str, np.ndarray]:
         """The predictions (:attr:`screen_predictions`) for ``(B, 4)`` physical actions, action b taken
-        in ``states[state_of[b]]``, each ``(B,)``: ``"in_the_way"`` (:meth:`in_the_way`, once per
-        state), and two margins in metres: ``"support_gap"``, how far above the target's surface the
-        held object's lowest point is at the release (the object carried rigidly; the descent
-        touching the support fails, and the measured placements fail mostly below −1 mm), and
-        ``"workspace_margin"``, how far inside the workspace the release lies
-        (:func:`~t2m_core.domain.constants.workspace_margin`; outside, the precheck fails)."""
+        in ``states[state_of[b]]`` (judged state by state), each ``(B,)``: ``"in_the_way"``
+        (:meth:`in_the_way`), and three margins in metres: ``"clearance"``, how far the held
+        object's footprint at the release clears the bystanders beyond
+        :data:`~t2m_core.domain.primitives.sweep_screen.TOOL_CLEARANCE` (up to
+        :data:`~t2m_core.domain.primitives.sweep_screen.CLEARANCE_RANGE`; the fingers' strike stays
+        a flag); ``"support_gap"``, how far above the target's surface the held object's lowest
+        point is at the release (the object carried rigidly; the descent touching the support
+        fails, and the measured placements fail mostly below −1 mm); and ``"workspace_margin"``, how
+        far inside the workspace the release lies (:func:`~t2m_core.domain.constants.workspace_margin`;
+        outside, the precheck fails)."""
         obj, target = self.check_arguments(states[0], arguments)
         physical, state_of = np.asarray(physical, dtype=np.float64), np.asarray(state_of, dtype=np.int64)
-        predictions = super().screen_of_states(states, arguments, physical, state_of)
-        # per state: the target's pose and the EE's height above the held object's lowest point
-        lowest = np.array([state.ee_position[2] - object_geometry(obj, state.objects[obj]).aabb[0][2] for state in states])
-        release = np.empty((len(physical), 3))
+        struck, clearance, release = np.zeros(len(physical), dtype=bool), np.empty(len(physical)), np.empty((len(physical), 3))
         for index, state in enumerate(states):
             mine = state_of == index
             if mine.any():
+                struck[mine], clearance[mine] = self._set_down(state, arguments, physical[mine], within=CLEARANCE_RANGE)
                 release[mine] = release_poses(state, target, physical[mine])[0]
+        # per state: the EE's height above the held object's lowest point, and the target's surface
+        lowest = np.array([state.ee_position[2] - object_geometry(obj, state.objects[obj]).aabb[0][2] for state in states])
         surface = np.array([state.objects[target].position[2] for state in states])
-        predictions["support_gap"] = release[:, 2] - lowest[state_of] - surface[state_of]
-        predictions["workspace_margin"] = workspace_margin(release[:, 0], release[:, 1])
-        return predictions
+        return {
+            "in_the_way": struck | (clearance < 0.0),
+            "clearance": clearance,
+            "support_gap": release[:, 2] - lowest[state_of] - surface[state_of],
+            "workspace_margin": workspace_margin(release[:, 0], release[:, 1]),
+        }
 
     def precheck(self, state: GeometricState, arguments: Sequence[str], action: np.ndarray) -> str | None:
         obj, target = self.check_arguments(state, arguments)
