@@ -240,8 +240,8 @@ def test_a_bad_rollout_skeleton_is_refused_before_any_work(tmp_path) -> None:
 
 
 def test_a_geometric_ensemble_trains_on_the_screen_predictions_chosen(tmp_path) -> None:
-    """``--screen`` picks the predictions the network reads (Pull's two margins here, not its default
-    flags): the trained checkpoint is that network; names the primitive does not predict, or a
+    """``--screen`` picks the predictions the network reads (a flag and a margin here, not Pull's
+    default two margins): the trained checkpoint is that network; names the primitive does not predict, or a
     network that reads no screen, are refused before any training."""
     data = tmp_path / "data"
     patch = pytest.MonkeyPatch()
@@ -252,14 +252,14 @@ def test_a_geometric_ensemble_trains_on_the_screen_predictions_chosen(tmp_path) 
     finally:
         patch.undo()
     common = ["train", "--skill", "pull", "--model", "q", "--data", str(data), "--steps", "20", "--eval-every", "10"]
-    trained = runner.invoke(app, [*common, "--q-network", "geometric", "--screen", "clearance, reach_margin", "--out", str(tmp_path / "out")])
+    trained = runner.invoke(app, [*common, "--q-network", "geometric", "--screen", "in_the_way, reach_margin", "--out", str(tmp_path / "out")])
     assert trained.exit_code == 0, trained.output
     q = json.loads((tmp_path / "out" / "pull" / "config.json").read_text())["models"]["q"]
-    assert q["architecture"]["screen"] == ["clearance", "reach_margin"] and q["architecture"]["input"] == 102
-    assert q["training"]["screen"] == ["clearance", "reach_margin"]
-    assert load_q(tmp_path / "out" / "pull").features == ("clearance", "reach_margin")
+    assert q["architecture"]["screen"] == ["in_the_way", "reach_margin"] and q["architecture"]["input"] == 102
+    assert q["training"]["screen"] == ["in_the_way", "reach_margin"]
+    assert load_q(tmp_path / "out" / "pull").features == ("in_the_way", "reach_margin")
     unknown = runner.invoke(app, [*common, "--q-network", "geometric", "--screen", "in_the_way,tipped", "--out", str(tmp_path / "x")])
-    assert unknown.exit_code == 2 and "asked for tipped" in unknown.output and "clearance, reach_margin" in unknown.output
+    assert unknown.exit_code == 2 and "asked for tipped" in unknown.output and "clearance, reach_margin" in unknown.output  # the names it predicts
     unread = runner.invoke(app, [*common, "--screen", "clearance", "--out", str(tmp_path / "x")])
     assert unread.exit_code == 2 and "--q-network geometric" in unread.output
     assert not (tmp_path / "x").exists()

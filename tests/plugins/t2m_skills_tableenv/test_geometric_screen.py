@@ -137,8 +137,9 @@ def test_training_learns_what_the_screen_predicts(tmp_path) -> None:
 
 def test_a_geometric_checkpoint_round_trips_and_other_skills_are_refused(tmp_path) -> None:
     pull = q_architecture("pull", "geometric")
-    assert pull["input"] == 102 and pull["screen"] == ["in_the_way", "unreachable"]
-    assert build_q(pull).features == ("in_the_way", "unreachable")
+    assert pull["input"] == 102 and pull["screen"] == ["clearance", "reach_margin"]
+    assert build_q(pull).features == ("clearance", "reach_margin")
+    assert build_q({**pull, "screen": ["in_the_way", "unreachable"]}).features == ("in_the_way", "unreachable")  # stop-54's Pull
     # the first geometric checkpoints (Pick) name their one prediction as a string
     assert build_q({**q_architecture("pick", "geometric"), "screen": "in_the_way"}).features == ("in_the_way",)
     architecture = q_architecture("pick", "geometric")
@@ -153,6 +154,10 @@ def test_a_geometric_checkpoint_round_trips_and_other_skills_are_refused(tmp_pat
     torch.testing.assert_close(loaded(states, actions), network(states, actions), rtol=0, atol=0)
 
 
+FLAGS = ("in_the_way", "unreachable")
+"""The hook sweeps' two flags (their default network reads the margins behind them)."""
+
+
 def test_the_sweep_screen_sees_a_bystander_on_a_pull_from_the_rows() -> None:
     """The hand-placed pulls of the domain's sweep tests: the red box between the blue box and the
     base is in the way of every draw, the red box aside or absent of none."""
@@ -163,11 +168,11 @@ def test_the_sweep_screen_sees_a_bystander_on_a_pull_from_the_rows() -> None:
     aside = holding_hook((0.8, 0.0), grasp_x=-0.1, rack=False, red_box=on_table("red_box", 0.45, -0.35))
     for state, expected in ((BLOCKED_PULL, True), (aside, False), (PULL_SCENE, False)):
         rows = np.repeat(skill_rows(state, list(PULL_ARGS), permutation=None), 3, axis=0)
-        assert screen_flags("pull", rows, draws)[:, 0].tolist() == [expected] * 3
+        assert screen_flags("pull", rows, draws, FLAGS)[:, 0].tolist() == [expected] * 3
     # the pull's second prediction: the box too far for the arm (the domain's sweep test), read from the rows
     far = holding_hook((1.0, 0.3), grasp_x=-0.1, rack=False)
     rows = np.concatenate((skill_rows(far, list(PULL_ARGS)), skill_rows(PULL_SCENE, list(PULL_ARGS))))
-    flags = screen_flags("pull", rows, draws[:2])
+    flags = screen_flags("pull", rows, draws[:2], FLAGS)
     assert flags.shape == (2, 2) and flags[:, 1].tolist() == [True, False]
     assert screen_flags("pull", rows, draws[:2], ("in_the_way",)).shape == (2, 1)
     with pytest.raises(ValueError, match="pick's screen predicts in_the_way; asked for unreachable"):
