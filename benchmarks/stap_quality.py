@@ -57,6 +57,10 @@ def main() -> None:
     except T2MError as error:
         parser.error(f"{error.message} ({error.hint})")
     planner_names = args.planners.split(",")
+    # everything the report at the end needs, imported now: sources edited during a long run do not
+    # mix with the modules already loaded
+    import t2m_skills_tableenv.report  # noqa: F401
+
     from t2m_core.config.resolve import parse_override
 
     options = {}
