@@ -57,8 +57,8 @@ def train(
     ] = None,
     screen: Annotated[
         str | None,
-        typer.Option("--screen", help="Geometric Q-ensemble: the screen predictions it reads, comma-separated (default: the skill's; "
-                     "pull and push also predict the margins clearance and reach_margin)."),
+        typer.Option("--screen", help="Geometric Q-ensemble: the screen predictions it reads, flags or margins, comma-separated "
+                     "(default: the skill's; e.g. in_the_way,unreachable for Pull's flags instead of its margins)."),
     ] = None,
     dynamics_network: Annotated[
         str | None,

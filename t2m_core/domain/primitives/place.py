@@ -112,28 +112,28 @@ class Place(Primitive):
         pose relative to the EE now to the release pose, or bring the fingers closed on it down on
         a bystander (:func:`~t2m_core.domain.primitives.fingers.fingers_strike`). A prediction from
         the domain's geometry, not a result."""
-        struck, clearance = self._set_down(state, arguments, np.atleast_2d(np.asarray(physical, dtype=np.float64)))
+        struck, clearance, _ = self._set_down(state, arguments, np.atleast_2d(np.asarray(physical, dtype=np.float64)))
         return struck | (clearance < 0.0)
 
     def _set_down(
         self, state: GeometricState, arguments: Sequence[str], physical: np.ndarray, within: float = 0.0
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """``((B,) bool, (B,) metres)`` for ``(B, 4)`` physical actions: whether the closed fingers come
-        down on a bystander, and how far the held object's footprint at the release clears the
-        bystanders beyond :data:`~t2m_core.domain.primitives.sweep_screen.TOOL_CLEARANCE`
-        (measured up to ``within``; negative where it comes nearer)."""
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``((B,) bool, (B,) metres, (B, 3) metres)`` for ``(B, 4)`` physical actions: whether the
+        closed fingers come down on a bystander, how far the held object's footprint at the release
+        clears the bystanders beyond :data:`~t2m_core.domain.primitives.sweep_screen.TOOL_CLEARANCE`
+        (measured up to ``within``; negative where it comes nearer), and the EE's release position."""
         obj, target = self.check_arguments(state, arguments)
+        release, release_yaw = release_poses(state, target, physical)
         obstacles = obstacle_footprints(bystanders(state, arguments))
         if len(obstacles) == 0:
-            return np.zeros(len(physical), dtype=bool), np.full(len(physical), float(within))
-        release, release_yaw = release_poses(state, target, physical)
+            return np.zeros(len(physical), dtype=bool), np.full(len(physical), float(within)), release
         held = state.objects[obj]
         positions, yaws = carried_poses(state.ee_position, quat_yaw(state.ee_quaternion), held.position, quat_yaw(held.quaternion), release, release_yaw)
         positions = positions[:, :2]
         footprints = yawed_footprints(object_spec(obj), np.column_stack((positions, release[:, 2])), yaws)  # (B, P, 4, 2)
         fingers = finger_footprints(release, release_yaw, held_opening(state, obj))
         struck = fingers_strike(state, arguments, fingers, release[:, 2] - FINGERTIP_BELOW_EE)
-        return struck, nearest_gaps(footprints, polygon_edges(footprints), obstacles, TOOL_CLEARANCE + within) - TOOL_CLEARANCE
+        return struck, nearest_gaps(footprints, polygon_edges(footprints), obstacles, TOOL_CLEARANCE + within) - TOOL_CLEARANCE, release
 
     screen_predictions: tuple[str, ...] = ("in_the_way", "clearance", "support_gap", "workspace_margin")
     """The predictions :meth:`screen_of_states` makes."""
@@ -158,8 +158,7 @@ class Place(Primitive):
         for index, state in enumerate(states):
             mine = state_of == index
             if mine.any():
-                struck[mine], clearance[mine] = self._set_down(state, arguments, physical[mine], within=CLEARANCE_RANGE)
-                release[mine] = release_poses(state, target, physical[mine])[0]
+                struck[mine], clearance[mine], release[mine] = self._set_down(state, arguments, physical[mine], within=CLEARANCE_RANGE)
         # per state: the EE's height above the held object's lowest point, and the target's surface
         lowest = np.array([state.ee_position[2] - object_geometry(obj, state.objects[obj]).aabb[0][2] for state in states])
         surface = np.array([state.objects[target].position[2] for state in states])
