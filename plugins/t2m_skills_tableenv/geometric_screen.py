@@ -109,7 +109,7 @@ def screen_values(skill: str, rows: np.ndarray, actions: np.ndarray, features: t
     (flags 0, margins ``+inf``). States
     that repeat (a planner ranking many actions in one state) are decoded once, and every state with
     the same objects goes to the primitive's ``screen_of_states`` in one batch (a planner's samples,
-    each in its own predicted state: Pick, Pull and Push judge it at once, Place once per state).
+    each in its own predicted state, judged at once).
 
     Raises:
         ValueError: a skill without a screen, or a prediction its primitive does not make.

@@ -454,10 +454,19 @@ def test_place_in_the_way_sees_the_held_object_set_down_against_another(holding:
     ahead = {**offset.objects, "cyan_box": on_table("cyan_box", 0.55, 0.3)}
     assert PLACE.in_the_way(GeometricState(beside, offset.ee_position, held="red_box"), ["red_box", "table"], release[None]).tolist() == [True]
     assert PLACE.in_the_way(GeometricState(ahead, offset.ee_position, held="red_box"), ["red_box", "table"], release[None]).tolist() == [False]
-    # Both states in one batch (the default screen_of_states: one in_the_way call per state), in any order.
+    # Both states in one batch, in any order.
     states = [GeometricState(beside, offset.ee_position, held="red_box"), GeometricState(ahead, offset.ee_position, held="red_box")]
     judged = PLACE.screen_of_states(states, ["red_box", "table"], np.stack([release] * 3), np.array([1, 0, 1]))
     assert judged["in_the_way"].tolist() == [False, True, False]
+    # States whose EE, held object and bystanders all differ, in one batch: every prediction is the
+    # one of the action's own state judged alone.
+    mixed, state_of = [holding, states[1]], np.array([1, 0, 0, 1])
+    actions = np.stack([release, _table_action(0.6, 0.2 + half_widths + 0.005), _table_action(0.35, 0.35), _table_action(0.6, 0.2)])
+    batch = PLACE.screen_of_states(mixed, ["red_box", "table"], actions, state_of)
+    for b, (index, action) in enumerate(zip(state_of, actions, strict=True)):
+        alone = PLACE.screen_of_states([mixed[index]], ["red_box", "table"], action[None], np.zeros(1, dtype=int))
+        assert {name: values[b] for name, values in batch.items()} == {name: values[0] for name, values in alone.items()}
+    assert batch["in_the_way"][:3].tolist() == [False, True, False]  # as judged above
     with pytest.raises(NotImplementedError, match="stop makes no geometric prediction"):
         STOP.in_the_way(holding, [], release[None])
 

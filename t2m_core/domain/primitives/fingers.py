@@ -95,12 +95,15 @@ _FAR = np.full((1, 2), 1.0e6)
 """m: a stand-in part, a point no finger comes near."""
 
 
-def held_opening(state: GeometricState, held: str) -> float:
+def held_opening(
+    state: GeometricState, held: str, geometry: Callable[[str, ObjectPose], ObjectGeometry] = object_geometry
+) -> float:
     """m: how far either side of the EE the pads' inner faces stand when closed on ``held``: the larger
-    half-extent across the jaw (the EE's y axis) of the held object's part nearest the EE."""
+    half-extent across the jaw (the EE's y axis) of the held object's part nearest the EE
+    (``geometry``: how to compute the object's, e.g. a memo over many states)."""
     yaw = float(quat_yaw(state.ee_quaternion))
     across = np.array([-np.sin(yaw), np.cos(yaw)])
-    footprints = object_geometry(held, state.objects[held]).footprints
+    footprints = geometry(held, state.objects[held]).footprints
     ee = state.ee_position[:2]
     part = min(footprints, key=lambda footprint: float(np.linalg.norm(footprint.mean(axis=0) - ee)))
     projections = (part - ee) @ across

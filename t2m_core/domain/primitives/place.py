@@ -19,6 +19,8 @@ from t2m_core.domain.geometry import (
     is_above,
     is_upright,
     object_geometry,
+    object_geometry_memo,
+    pad_polygons,
     polygon_edges,
     quat_yaw,
     rotate,
@@ -37,7 +39,12 @@ from t2m_core.domain.primitives.base import (
     lift_position,
     other_objects,
 )
-from t2m_core.domain.primitives.fingers import FINGERTIP_BELOW_EE, finger_footprints, fingers_strike, held_opening
+from t2m_core.domain.primitives.fingers import (
+    FINGERTIP_BELOW_EE,
+    finger_footprints,
+    fingers_strike_of_states,
+    held_opening,
+)
 from t2m_core.domain.primitives.pick import MOVABLE
 from t2m_core.domain.primitives.sweep_screen import (
     CLEARANCE_RANGE,
@@ -67,11 +74,19 @@ def place_rectangle(target: str) -> np.ndarray:
 def release_poses(state: GeometricState, target: str, physical: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``((B, 3) positions in metres, (B,) yaws in radians)`` of the EE at the release of ``(B, 4)``
     physical Place actions on ``target``, world frame."""
+    pose = state.objects[target]
+    return release_poses_on(target, pose.position, pose.quaternion, physical)
+
+
+def release_poses_on(
+    target: str, position: np.ndarray, quaternion: np.ndarray, physical: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`release_poses` on ``target`` at a ``(3,)`` or ``(B, 3)`` position (metres) and ``(4,)``
+    or ``(B, 4)`` quaternion: one pose for all actions, or each action's own."""
     rectangle = place_rectangle(target)
     local_xy = rectangle[0] + (physical[:, :2] + 1.0) / 2.0 * (rectangle[1] - rectangle[0])
-    pose = state.objects[target]
-    positions = pose.position + rotate(pose.quaternion, np.column_stack((local_xy, physical[:, 2])))
-    return positions, wrap_angle(quat_yaw(pose.quaternion) + physical[:, 3])
+    positions = position + rotate(quaternion, np.column_stack((local_xy, physical[:, 2])))
+    return positions, wrap_angle(quat_yaw(quaternion) + physical[:, 3])
 
 
 def carried_poses(
@@ -112,28 +127,8 @@ class Place(Primitive):
         pose relative to the EE now to the release pose, or bring the fingers closed on it down on
         a bystander (:func:`~t2m_core.domain.primitives.fingers.fingers_strike`). A prediction from
         the domain's geometry, not a result."""
-        struck, clearance, _ = self._set_down(state, arguments, np.atleast_2d(np.asarray(physical, dtype=np.float64)))
-        return struck | (clearance < 0.0)
-
-    def _set_down(
-        self, state: GeometricState, arguments: Sequence[str], physical: np.ndarray, within: float = 0.0
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``((B,) bool, (B,) metres, (B, 3) metres)`` for ``(B, 4)`` physical actions: whether the
-        closed fingers come down on a bystander, how far the held object's footprint at the release
-        clears the bystanders beyond :data:`~t2m_core.domain.primitives.sweep_screen.TOOL_CLEARANCE`
-        (measured up to ``within``; negative where it comes nearer), and the EE's release position."""
-        obj, target = self.check_arguments(state, arguments)
-        release, release_yaw = release_poses(state, target, physical)
-        obstacles = obstacle_footprints(bystanders(state, arguments))
-        if len(obstacles) == 0:
-            return np.zeros(len(physical), dtype=bool), np.full(len(physical), float(within)), release
-        held = state.objects[obj]
-        positions, yaws = carried_poses(state.ee_position, quat_yaw(state.ee_quaternion), held.position, quat_yaw(held.quaternion), release, release_yaw)
-        positions = positions[:, :2]
-        footprints = yawed_footprints(object_spec(obj), np.column_stack((positions, release[:, 2])), yaws)  # (B, P, 4, 2)
-        fingers = finger_footprints(release, release_yaw, held_opening(state, obj))
-        struck = fingers_strike(state, arguments, fingers, release[:, 2] - FINGERTIP_BELOW_EE)
-        return struck, nearest_gaps(footprints, polygon_edges(footprints), obstacles, TOOL_CLEARANCE + within) - TOOL_CLEARANCE, release
+        physical = np.atleast_2d(np.asarray(physical, dtype=np.float64))
+        return self.screen_of_states([state], arguments, physical, np.zeros(len(physical), dtype=np.int64))["in_the_way"]
 
     screen_predictions: tuple[str, ...] = ("in_the_way", "clearance", "support_gap", "workspace_margin")
     """The predictions :meth:`screen_of_states` makes."""
@@ -142,25 +137,45 @@ class Place(Primitive):
         self, states: Sequence[GeometricState], arguments: Sequence[str], physical: np.ndarray, state_of: np.ndarray
     ) -> dict[str, np.ndarray]:
         """The predictions (:attr:`screen_predictions`) for ``(B, 4)`` physical actions, action b taken
-        in ``states[state_of[b]]`` (judged state by state), each ``(B,)``: ``"in_the_way"``
-        (:meth:`in_the_way`), and three margins in metres: ``"clearance"``, how far the held
-        object's footprint at the release clears the bystanders beyond
-        :data:`~t2m_core.domain.primitives.sweep_screen.TOOL_CLEARANCE` (up to
-        :data:`~t2m_core.domain.primitives.sweep_screen.CLEARANCE_RANGE`; the fingers' strike stays
-        a flag); ``"support_gap"``, how far above the target's surface the held object's lowest
+        in ``states[state_of[b]]``, judged as one batch (a planner's samples, each in its own
+        predicted state; the states hold the same objects, and an object's geometry is computed
+        once per distinct pose), each ``(B,)``: ``"in_the_way"`` (:meth:`in_the_way`), and three
+        margins in metres: ``"clearance"``, how far the held object's footprint at the release
+        clears the bystanders beyond :data:`~t2m_core.domain.primitives.sweep_screen.TOOL_CLEARANCE`
+        (up to :data:`~t2m_core.domain.primitives.sweep_screen.CLEARANCE_RANGE`; the fingers' strike
+        stays a flag); ``"support_gap"``, how far above the target's surface the held object's lowest
         point is at the release (the object carried rigidly; the descent touching the support
         fails, and the measured placements fail mostly below −1 mm); and ``"workspace_margin"``, how
         far inside the workspace the release lies (:func:`~t2m_core.domain.constants.workspace_margin`;
         outside, the precheck fails)."""
         obj, target = self.check_arguments(states[0], arguments)
         physical, state_of = np.asarray(physical, dtype=np.float64), np.asarray(state_of, dtype=np.int64)
-        struck, clearance, release = np.zeros(len(physical), dtype=bool), np.empty(len(physical)), np.empty((len(physical), 3))
-        for index, state in enumerate(states):
-            mine = state_of == index
-            if mine.any():
-                struck[mine], clearance[mine], release[mine] = self._set_down(state, arguments, physical[mine], within=CLEARANCE_RANGE)
-        # per state: the EE's height above the held object's lowest point, and the target's surface
-        lowest = np.array([state.ee_position[2] - object_geometry(obj, state.objects[obj]).aabb[0][2] for state in states])
+        geometry = object_geometry_memo()
+
+        def per_state(value) -> np.ndarray:  # one value per state, then per action
+            return np.array([value(state) for state in states], dtype=np.float64)[state_of]
+
+        release, release_yaw = release_poses_on(
+            target, per_state(lambda s: s.objects[target].position), per_state(lambda s: s.objects[target].quaternion), physical
+        )
+        held_geometry = [geometry(obj, state.objects[obj]) for state in states]
+        # the fingers stay closed on the held object, which the EE carries rigidly to the release
+        fingers = finger_footprints(release, release_yaw, np.array([held_opening(state, obj, geometry) for state in states])[state_of])
+        struck = fingers_strike_of_states(states, state_of, arguments, fingers, release[:, 2] - FINGERTIP_BELOW_EE, geometry)
+        obstacles = [obstacle_footprints(bystanders(state, arguments, geometry)) for state in states]  # (N, K_s, 2) each
+        if obstacles[0].shape[0] == 0:
+            clearance = np.full(len(physical), CLEARANCE_RANGE)
+        else:
+            positions, yaws = carried_poses(
+                per_state(lambda s: s.ee_position), per_state(lambda s: quat_yaw(s.ee_quaternion)),
+                per_state(lambda s: s.objects[obj].position), per_state(lambda s: quat_yaw(s.objects[obj].quaternion)),
+                release, release_yaw,
+            )
+            footprints = yawed_footprints(object_spec(obj), positions, yaws)  # (B, P, 4, 2)
+            obstacles = pad_polygons(obstacles)[state_of]  # (B, N, K, 2)
+            clearance = nearest_gaps(footprints, polygon_edges(footprints), obstacles, TOOL_CLEARANCE + CLEARANCE_RANGE) - TOOL_CLEARANCE
+        # the EE's height above the held object's lowest point, and the target's surface
+        lowest = np.array([state.ee_position[2] - shape.aabb[0][2] for state, shape in zip(states, held_geometry, strict=True)])
         surface = np.array([state.objects[target].position[2] for state in states])
         return {
             "in_the_way": struck | (clearance < 0.0),
