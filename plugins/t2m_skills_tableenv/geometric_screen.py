@@ -38,14 +38,16 @@ they took Pull's precision / recall from 96.1 / 94.2 % with the flags to 96.9 / 
 its flag and three margins (docs/guide/skills.md#geometric-q-ensemble)."""
 MARGIN_SCALES: dict[str, float] = {
     "clearance": 0.05, "reach_margin": 0.05, "under_depth": 0.1, "leg_clearance": 0.05, "support_gap": 0.02, "workspace_margin": 0.05,
+    "support_margin": 0.05,
 }
 """Predictions that are margins in metres, and the margin that enters a network as ±0.5
 (:func:`screen_inputs`): the hook sweeps' ``clearance`` from the bystanders beyond the screen's own
 clearances and ``reach_margin`` inside the arm's reach (negative where ``in_the_way`` or
 ``unreachable``); Push's ``under_depth`` of the box under the rack and ``leg_clearance`` of the
 swept box from the rack's legs; Place's ``clearance`` of the set-down object from the bystanders,
-``support_gap`` between its lowest point and the target's surface at the release, and
-``workspace_margin`` of the release. The others are flags."""
+``support_gap`` between its lowest point and the target's surface at the release,
+``workspace_margin`` of the release and ``support_margin`` of its centre inside the target's top.
+The others are flags."""
 REFUSED_MARGIN = -np.inf
 """The margin of a call the primitive refuses (every flag raised); a state of no known world reads
 ``+inf`` (no prediction: nothing in the way)."""

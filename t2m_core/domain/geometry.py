@@ -302,6 +302,18 @@ def polygon_edges(polygons: np.ndarray) -> np.ndarray:
     return np.stack((polygons, np.roll(polygons, -1, axis=-2)), axis=-2)
 
 
+def inside_margins(points: np.ndarray, polygons: np.ndarray) -> np.ndarray:
+    """``(...)`` how far ``(..., 2)`` points lie inside ``(..., K, 2)`` counter-clockwise convex
+    polygons, metres: the distance to the nearest edge's line, negative beyond an edge (by at least
+    the distance to the polygon there). Zero-length edges (a :func:`pad_polygons` padding) are skipped."""
+    start, end = polygons, np.roll(polygons, -1, axis=-2)
+    along = end - start
+    length = np.linalg.norm(along, axis=-1)  # (..., K)
+    inward = np.stack((-along[..., 1], along[..., 0]), axis=-1) / np.where(length > 0, length, 1.0)[..., None]
+    margins = np.sum(inward * (np.asarray(points)[..., None, :] - start), axis=-1)
+    return np.min(np.where(length > 0, margins, np.inf), axis=-1)
+
+
 def hull_distances(points_a: np.ndarray, edges_a: np.ndarray, points_b: np.ndarray, edges_b: np.ndarray) -> np.ndarray:
     """Closest distances between the convex hulls of two point sets, broadcast over the leading axes,
     metres; 0 where they overlap: :func:`polygon_distance` for batches.

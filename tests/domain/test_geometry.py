@@ -189,6 +189,18 @@ def test_yawed_footprints_are_the_object_footprints() -> None:
             np.testing.assert_allclose(g.convex_hull_2d(part), footprint, atol=1e-12)
 
 
+def test_inside_margins_measure_to_the_nearest_edge_and_go_negative_beyond() -> None:
+    square = g.convex_hull_2d(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
+    padded = g.pad_polygons([square, np.array([[0.0, 0.0], [2.0, 0.0], [0.0, 2.0]])])  # the square gains no vertex
+    points = np.array([[0.5, 0.5], [0.1, 0.7], [1.2, 0.5], [0.5, 0.5]])
+    margins = g.inside_margins(points, padded[[0, 0, 0, 1]])
+    # the centre 0.5 from every side; 0.1 from the left side; 0.2 beyond the right side; inside the
+    # triangle, 0.5 from both legs and (2 − 1) / √2 from the hypotenuse
+    np.testing.assert_allclose(margins, [0.5, 0.1, -0.2, 0.5], atol=1e-12)
+    moved = g.pad_polygons([square])[0] + [0.0, 0.3]  # a padding-free square shifted up by 0.3 m
+    assert g.inside_margins(np.array([0.5, 0.2]), moved) == pytest.approx(-0.1)
+
+
 def test_grow_polygon_moves_vertices_outward_per_axis() -> None:
     grown = g.grow_polygon(_square(1, 1, half=0.1), 0.05)
     np.testing.assert_allclose(grown.min(axis=0), [0.85, 0.85])

@@ -479,6 +479,11 @@ def test_place_margins_measure_the_drop_to_the_support_and_the_workspace(holding
     np.testing.assert_allclose(judged["support_gap"], [0.0, -0.009, 0.011], atol=1e-12)
     # the rack's centre, (0.44, −0.33): 4 cm beyond the workspace's near edge x = 0.40, 0.55 m from the base
     np.testing.assert_allclose(judged["workspace_margin"], 0.04, atol=1e-12)
+    # the box's centre there lies half the plate's depth (x) inside its edges
+    np.testing.assert_allclose(judged["support_margin"], OBJECTS["rack"].size[0] / 2, atol=1e-12)
+    # on the table 5 cm and 2 cm inside its edge y = 0.45, and 3 cm beyond it (it falls: below_table)
+    edge = np.array([PLACE.to_physical(_table_action(0.5, y)) for y in (0.40, 0.43, 0.48)])
+    np.testing.assert_allclose(PLACE.screen_of_states([holding], ["red_box", "table"], edge, np.zeros(3, dtype=int))["support_margin"], [0.05, 0.02, -0.03], atol=1e-12)
     near = PLACE.to_physical(_table_action(0.35, 0.35))  # 5 cm short of the near edge: the precheck refuses it
     table = PLACE.screen_of_states([holding], ["red_box", "table"], near[None], np.zeros(1, dtype=int))
     assert table["workspace_margin"][0] == pytest.approx(-0.05) and PLACE.precheck(holding, ["red_box", "table"], _table_action(0.35, 0.35)) == "not_in_workspace"

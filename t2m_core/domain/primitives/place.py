@@ -16,6 +16,8 @@ from t2m_core.domain.constants import (
     workspace_margin,
 )
 from t2m_core.domain.geometry import (
+    convex_hull_2d,
+    inside_margins,
     is_above,
     is_upright,
     object_geometry,
@@ -130,7 +132,7 @@ class Place(Primitive):
         physical = np.atleast_2d(np.asarray(physical, dtype=np.float64))
         return self.screen_of_states([state], arguments, physical, np.zeros(len(physical), dtype=np.int64))["in_the_way"]
 
-    screen_predictions: tuple[str, ...] = ("in_the_way", "clearance", "support_gap", "workspace_margin")
+    screen_predictions: tuple[str, ...] = ("in_the_way", "clearance", "support_gap", "workspace_margin", "support_margin")
     """The predictions :meth:`screen_of_states` makes."""
 
     def screen_of_states(
@@ -145,9 +147,11 @@ class Place(Primitive):
         (up to :data:`~t2m_core.domain.primitives.sweep_screen.CLEARANCE_RANGE`; the fingers' strike
         stays a flag); ``"support_gap"``, how far above the target's surface the held object's lowest
         point is at the release (the object carried rigidly; the descent touching the support
-        fails, and the measured placements fail mostly below −1 mm); and ``"workspace_margin"``, how
-        far inside the workspace the release lies (:func:`~t2m_core.domain.constants.workspace_margin`;
-        outside, the precheck fails)."""
+        fails, and the measured placements fail mostly below −1 mm); ``"workspace_margin"``, how far
+        inside the workspace the release lies (:func:`~t2m_core.domain.constants.workspace_margin`;
+        outside, the precheck fails); and ``"support_margin"``, how far inside the target's top the
+        held object's centre lies at the release (:func:`~t2m_core.domain.geometry.inside_margins`;
+        beyond the table's edge the object falls, ``below_table``)."""
         obj, target = self.check_arguments(states[0], arguments)
         physical, state_of = np.asarray(physical, dtype=np.float64), np.asarray(state_of, dtype=np.int64)
         geometry = object_geometry_memo()
@@ -162,15 +166,16 @@ class Place(Primitive):
         # the fingers stay closed on the held object, which the EE carries rigidly to the release
         fingers = finger_footprints(release, release_yaw, np.array([held_opening(state, obj, geometry) for state in states])[state_of])
         struck = fingers_strike_of_states(states, state_of, arguments, fingers, release[:, 2] - FINGERTIP_BELOW_EE, geometry)
+        positions, yaws = carried_poses(
+            per_state(lambda s: s.ee_position), per_state(lambda s: quat_yaw(s.ee_quaternion)),
+            per_state(lambda s: s.objects[obj].position), per_state(lambda s: quat_yaw(s.objects[obj].quaternion)),
+            release, release_yaw,
+        )  # the held object's at the release
+        tops = pad_polygons([convex_hull_2d(np.concatenate(geometry(target, state.objects[target]).footprints)) for state in states])
         obstacles = [obstacle_footprints(bystanders(state, arguments, geometry)) for state in states]  # (N, K_s, 2) each
         if obstacles[0].shape[0] == 0:
             clearance = np.full(len(physical), CLEARANCE_RANGE)
         else:
-            positions, yaws = carried_poses(
-                per_state(lambda s: s.ee_position), per_state(lambda s: quat_yaw(s.ee_quaternion)),
-                per_state(lambda s: s.objects[obj].position), per_state(lambda s: quat_yaw(s.objects[obj].quaternion)),
-                release, release_yaw,
-            )
             footprints = yawed_footprints(object_spec(obj), positions, yaws)  # (B, P, 4, 2)
             obstacles = pad_polygons(obstacles)[state_of]  # (B, N, K, 2)
             clearance = nearest_gaps(footprints, polygon_edges(footprints), obstacles, TOOL_CLEARANCE + CLEARANCE_RANGE) - TOOL_CLEARANCE
@@ -182,6 +187,7 @@ class Place(Primitive):
             "clearance": clearance,
             "support_gap": release[:, 2] - lowest[state_of] - surface[state_of],
             "workspace_margin": workspace_margin(release[:, 0], release[:, 1]),
+            "support_margin": inside_margins(positions[:, :2], tops[state_of]),
         }
 
     def precheck(self, state: GeometricState, arguments: Sequence[str], action: np.ndarray) -> str | None:
