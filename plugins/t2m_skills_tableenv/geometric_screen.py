@@ -27,7 +27,7 @@ from t2m_core.domain.state import GeometricState
 
 SCREEN_FEATURES: dict[str, tuple[str, ...]] = {
     "pick": ("in_the_way",),
-    "place": ("in_the_way", "clearance", "support_gap", "workspace_margin"),
+    "place": ("in_the_way", "clearance", "support_gap", "workspace_margin", "support_margin"),
     "pull": ("clearance", "reach_margin"),
     "push": ("clearance", "reach_margin"),
 }
@@ -35,7 +35,8 @@ SCREEN_FEATURES: dict[str, tuple[str, ...]] = {
 geometric``; ``--screen`` picks others): for Pick, the flag ``in_the_way``; for the hook sweeps,
 the margins behind their flags ``in_the_way`` and ``unreachable`` (on the data scenes' validation
 they took Pull's precision / recall from 96.1 / 94.2 % with the flags to 96.9 / 96.8 %); for Place,
-its flag and three margins (docs/guide/skills.md#geometric-q-ensemble)."""
+its flag and four margins (without ``support_margin``, task1's plans set boxes down beyond the
+table's edge: docs/guide/skills.md#geometric-q-ensemble)."""
 MARGIN_SCALES: dict[str, float] = {
     "clearance": 0.05, "reach_margin": 0.05, "under_depth": 0.1, "leg_clearance": 0.05, "support_gap": 0.02, "workspace_margin": 0.05,
     "support_margin": 0.05,
