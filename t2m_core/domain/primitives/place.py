@@ -141,7 +141,7 @@ class Place(Primitive):
         """The predictions (:attr:`screen_predictions`) for ``(B, 4)`` physical actions, action b taken
         in ``states[state_of[b]]``, judged as one batch (a planner's samples, each in its own
         predicted state; the states hold the same objects, and an object's geometry is computed
-        once per distinct pose), each ``(B,)``: ``"in_the_way"`` (:meth:`in_the_way`), and three
+        once per distinct pose), each ``(B,)``: ``"in_the_way"`` (:meth:`in_the_way`), and four
         margins in metres: ``"clearance"``, how far the held object's footprint at the release
         clears the bystanders beyond :data:`~t2m_core.domain.primitives.sweep_screen.TOOL_CLEARANCE`
         (up to :data:`~t2m_core.domain.primitives.sweep_screen.CLEARANCE_RANGE`; the fingers' strike
