@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -73,18 +73,12 @@ def place_rectangle(target: str) -> np.ndarray:
     return np.array([low[:2], high[:2]])
 
 
-def release_poses(state: GeometricState, target: str, physical: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``((B, 3) positions in metres, (B,) yaws in radians)`` of the EE at the release of ``(B, 4)``
-    physical Place actions on ``target``, world frame."""
-    pose = state.objects[target]
-    return release_poses_on(target, pose.position, pose.quaternion, physical)
-
-
-def release_poses_on(
+def release_poses(
     target: str, position: np.ndarray, quaternion: np.ndarray, physical: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`release_poses` on ``target`` at a ``(3,)`` or ``(B, 3)`` position (metres) and ``(4,)``
-    or ``(B, 4)`` quaternion: one pose for all actions, or each action's own."""
+    """``((B, 3) positions in metres, (B,) yaws in radians)`` of the EE at the release of ``(B, 4)``
+    physical Place actions on ``target`` standing at a ``(3,)`` or ``(B, 3)`` position (metres) with a
+    ``(4,)`` or ``(B, 4)`` quaternion (one pose for all actions, or each action's own), world frame."""
     rectangle = place_rectangle(target)
     local_xy = rectangle[0] + (physical[:, :2] + 1.0) / 2.0 * (rectangle[1] - rectangle[0])
     positions = position + rotate(quaternion, np.column_stack((local_xy, physical[:, 2])))
@@ -119,7 +113,8 @@ class Place(Primitive):
 
     def release_pose(self, state: GeometricState, target: str, action: np.ndarray) -> tuple[np.ndarray, float]:
         """``((3,) position in metres, yaw in radians)`` of the EE at the release, world frame."""
-        positions, yaws = release_poses(state, target, self.to_physical(action)[None])
+        pose = state.objects[target]
+        positions, yaws = release_poses(target, pose.position, pose.quaternion, self.to_physical(action)[None])
         return positions[0], float(yaws[0])
 
     def in_the_way(self, state: GeometricState, arguments: Sequence[str], physical: np.ndarray) -> np.ndarray:
@@ -156,10 +151,10 @@ class Place(Primitive):
         physical, state_of = np.asarray(physical, dtype=np.float64), np.asarray(state_of, dtype=np.int64)
         geometry = object_geometry_memo()
 
-        def per_state(value) -> np.ndarray:  # one value per state, then per action
+        def per_state(value: Callable[[GeometricState], object]) -> np.ndarray:  # one value per state, then per action
             return np.array([value(state) for state in states], dtype=np.float64)[state_of]
 
-        release, release_yaw = release_poses_on(
+        release, release_yaw = release_poses(
             target, per_state(lambda s: s.objects[target].position), per_state(lambda s: s.objects[target].quaternion), physical
         )
         held_geometry = [geometry(obj, state.objects[obj]) for state in states]
