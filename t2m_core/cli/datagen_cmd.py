@@ -41,7 +41,8 @@ def datagen(
     scenes: Annotated[
         str,
         typer.Option("--scenes", help="Where transitions start: data (enumerated symbolic states, default), tasks (states reached along "
-                     "the task suite's reference skeletons; needs --sampler proposal or planned) or tasks:ID,ID (those tasks' skeletons only)."),
+                     "the task suite's reference skeletons; needs --sampler proposal or planned), tasks:ID,ID (those tasks' skeletons only) "
+                     "or evaluation (the single-skill scenes a policy's success is reported in, other instances)."),
     ] = "data",
     skeleton: Annotated[
         str | None,
@@ -68,7 +69,8 @@ def datagen(
         sim = get_registry().get("simulator", sim).name  # an unknown name fails here, with the choices
     if scenes.partition(":")[0] not in SCENES:
         raise T2MError(f"unknown scene source {scenes!r}", f"use one of: {', '.join(SCENES)}, or tasks:ID,ID")
-    if scenes != "data" and sampler not in LIBRARY_SAMPLERS:
+    rollouts = scenes.partition(":")[0] == "tasks"
+    if rollouts and sampler not in LIBRARY_SAMPLERS:
         raise T2MError("--scenes tasks advances along the skeletons with a skill library's proposals", "add --sampler proposal (or planned)")
     if proposal_checkpoints is not None and sampler not in LIBRARY_SAMPLERS:
         raise T2MError("--proposal-checkpoints is for the proposal and planned samplers", "add --sampler proposal, or drop --proposal-checkpoints")
@@ -82,7 +84,7 @@ def datagen(
     for name in skills:
         proposal = None
         if proposal_directory is not None:
-            digest = library_digest(proposal_directory, DATA_SKILLS) if scenes != "data" else checkpoint_digest(proposal_directory, name)
+            digest = library_digest(proposal_directory, DATA_SKILLS) if rollouts else checkpoint_digest(proposal_directory, name)
             proposal = ProposalSource(proposal_library, str(proposal_directory), digest)
         job = DatasetJob(out.resolve(), name, split, size, chunk_size, seed, sampler, sim, actions_per_scene=actions_per_scene, proposal=proposal,
                          scenes=scenes, skeleton=skeleton)

@@ -34,6 +34,7 @@ from t2m_core.data.rollouts import (
     shipped_tasks,
     task_rollout_rows,
 )
+from t2m_core.data.evaluation_scenes import evaluation_task
 from t2m_core.data.scenes import DATA_SKILLS, DataTask, draw_data_task
 from t2m_core.domain.geometry import quat_multiply, rotate, yaw_to_quat
 from t2m_core.domain.observation import MAX_OBJECTS, argument_first_order, encode_observation
@@ -70,11 +71,13 @@ UNBALANCED_SAMPLERS: tuple[str, ...] = ("planned",)
 """Samplers whose chunks keep every transition (no balancing): a planned rollout is there for the
 planner's failures, and a chunk that dropped failures once it held its share would keep only the
 successes of its later scenes (docs/guide/skills.md#planned-rollouts)."""
-SCENES: tuple[str, ...] = ("data", "tasks")
+SCENES: tuple[str, ...] = ("data", "tasks", "evaluation")
 """Where simulated transitions start: ``data``, the enumerated symbolic states with distractors
 (:mod:`t2m_core.data.scenes`); ``tasks``, states reached along rollouts of the task suite's
 reference skeletons (:mod:`t2m_core.data.rollouts`, proposal or planned sampler), or ``tasks:ID,ID``
-along those of the named tasks only."""
+along those of the named tasks only; ``evaluation``, the single-skill evaluation scenes
+(:mod:`t2m_core.data.evaluation_scenes`), drawn from the chunk's own stream: the scenes a policy's
+success is reported in, not the report's or the selection's instances."""
 
 
 class DataGenerationError(T2MError):
@@ -144,14 +147,19 @@ class ChunkSpec:
         if (self.sampler in LIBRARY_SAMPLERS) != (self.proposal is not None) and self.simulated:
             raise DataGenerationError("the proposal and planned samplers, and only they, need a proposal skill library",
                                       "give --proposal-checkpoints with --sampler proposal or planned")
+        if self.scenes.partition(":")[0] not in SCENES:
+            raise DataGenerationError(f"unknown scene source {self.scenes!r}", f"use one of: {', '.join(SCENES)}, or tasks:ID,ID (e.g. tasks:task0,task2)")
+        if self.scenes == "evaluation" and (self.skeleton is not None or not self.simulated):
+            raise DataGenerationError("evaluation scenes hold simulated transitions of one call, without a skeleton",
+                                      "use --scenes evaluation with the train or validation split and no --skeleton")
         if self.skeleton is not None:
             self._check_skeleton()
-        elif self.scenes != "data":
+        elif self.rollouts:
             self._check_rollout_tasks()
-        if self.scenes != "data" and (self.sampler not in LIBRARY_SAMPLERS or not self.simulated):
+        if self.rollouts and (self.sampler not in LIBRARY_SAMPLERS or not self.simulated):
             raise DataGenerationError("task-rollout scenes need the proposal or planned sampler (it advances along the skeletons) and a simulated split",
                                       "add --sampler proposal, or drop --scenes tasks")
-        if self.sampler == "planned" and self.scenes == "data" and self.simulated:
+        if self.sampler == "planned" and not self.rollouts and self.simulated:
             raise DataGenerationError("the planned sampler plans along task rollouts, not in data scenes", "add --scenes tasks or tasks:ID")
         if self.size < 1 or self.index < 0 or self.base_seed < 0 or self.actions_per_scene < 1:
             raise DataGenerationError(f"chunk size and actions per scene must be >= 1 and index, seed >= 0; got {self}")
@@ -166,7 +174,7 @@ class ChunkSpec:
 
     def _check_skeleton(self) -> None:
         try:
-            ids = parse_rollout_tasks(self.scenes) if self.scenes != "data" else None
+            ids = parse_rollout_tasks(self.scenes) if self.rollouts else None
             task = shipped_tasks(ids)[0] if ids is not None and len(ids) == 1 else None
         except ValueError as error:
             raise DataGenerationError(f"unknown scene source {self.scenes!r}: {error}", "use tasks:ID with a shipped task id") from None
@@ -183,6 +191,11 @@ class ChunkSpec:
     def filename(self) -> str:
         """``chunk-00003.safetensors``."""
         return f"chunk-{self.index:05d}.safetensors"
+
+    @property
+    def rollouts(self) -> bool:
+        """Whether transitions start along task rollouts (``tasks`` or ``tasks:ID,ID``)."""
+        return self.scenes.partition(":")[0] == "tasks"
 
     @property
     def simulated(self) -> bool:
@@ -276,10 +289,10 @@ def generate_chunk(spec: ChunkSpec, simulator: Any = None) -> tuple[Transitions,
     rows: list[dict[str, Any]] = []
     kept_failures = 0
     while len(rows) < spec.size:
-        if spec.scenes != "data":
+        if spec.rollouts:
             scene_rows = task_rollout_rows(spec, simulator, rng, stats, DATA_SKILLS, _row)
         else:
-            task = draw_data_task(spec.skill, spec.simulated, rng)
+            task = evaluation_task(spec.skill, rng) if spec.scenes == "evaluation" else draw_data_task(spec.skill, spec.simulated, rng)
             scene_seed = int(rng.integers(2**31 - 1))
             scene_rows = _simulated_rows(spec, simulator, task, scene_seed, rng, stats) if spec.simulated else iter([_invalid_row(task, scene_seed, rng)])
         for row in scene_rows:

@@ -185,3 +185,19 @@ def test_each_action_of_a_scene_runs_from_the_exact_reset_state() -> None:
     result = simulator.execute("pick", task.call.args, transitions.action[row])
     np.testing.assert_allclose(np.asarray(result.observation, dtype=np.float32), transitions.next_observation[row], atol=1e-5)
     assert bool(result.success) == bool(transitions.success[row])
+
+
+def test_evaluation_scenes_hold_the_single_skill_scenes_a_policy_is_reported_in() -> None:
+    spec = ChunkSpec("pick", "train", 0, 12, sampler="uniform", actions_per_scene=2, scenes="evaluation")
+    transitions, _ = generate_chunk(spec, ScriptedSimulator(True))
+    assert spec.header()["scenes"] == "evaluation" and not spec.rollouts
+    for row in range(len(transitions)):
+        names, (box,) = transitions.object_names(row), transitions.argument_names(row)
+        # evaluation_scenes: the table, the rack, the hook and one box, which is picked
+        assert sorted(names) == sorted(("table", "rack", "hook", box)) and box.endswith("_box")
+    assert len(set(transitions.scene_seed.tolist())) == 6
+    data, _ = generate_chunk(ChunkSpec("pick", "train", 0, 12, sampler="uniform", actions_per_scene=2), ScriptedSimulator(True))
+    assert any(len(data.object_names(row)) != 4 for row in range(len(data)))  # the data scenes add distractors
+    for split, skeleton in (("invalid", None), ("train", "pick(hook)")):
+        with pytest.raises(DataGenerationError, match="--scenes evaluation"):
+            ChunkSpec("pick", split, 0, 5, scenes="evaluation", skeleton=skeleton)
