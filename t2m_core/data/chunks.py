@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from t2m_core.data.evaluation_scenes import evaluation_task
 from t2m_core.data.records import (
     INVALID_GROUNDING,
     MAX_ARGUMENTS,
@@ -34,7 +35,6 @@ from t2m_core.data.rollouts import (
     shipped_tasks,
     task_rollout_rows,
 )
-from t2m_core.data.evaluation_scenes import evaluation_task
 from t2m_core.data.scenes import DATA_SKILLS, DataTask, draw_data_task
 from t2m_core.domain.geometry import quat_multiply, rotate, yaw_to_quat
 from t2m_core.domain.observation import MAX_OBJECTS, argument_first_order, encode_observation
