@@ -101,6 +101,10 @@ class StageSettings(BaseModel):
         "min", description="policy only, with policy_targets: rank the copies by the members' minimum (the actor's own, "
         "pessimistic value) or by their mean"
     )
+    policy_target_margin: float = Field(
+        0.0, ge=0, description="policy only, with policy_targets: a copy replaces the policy's own action as a state's target only "
+        "when valued at least this much higher (0: any gain; a positive margin keeps the noise of near-ties out of the targets)"
+    )
 
 
 DEFAULT_SETTINGS: dict[str, StageSettings] = {
@@ -316,7 +320,7 @@ class PolicyStage(Stage):
             generator = torch.Generator().manual_seed(self.settings.seed)
             self.targets = searched_actions(
                 self.network, self.q_ensemble, self.train.rows, self.settings.policy_targets, self.settings.policy_target_sigma, generator,
-                value=self.settings.policy_target_value, on_progress=on_progress,
+                value=self.settings.policy_target_value, margin=self.settings.policy_target_margin, on_progress=on_progress,
             )
 
     def parameters_to_save(self) -> dict[str, nn.Module | torch.optim.Optimizer]:
@@ -364,12 +368,14 @@ def searched_actions(
     sigma: float,
     generator: torch.Generator,
     value: Literal["min", "mean"] = "min",
+    margin: float = 0.0,
     pairs_per_batch: int = 65_536,
     on_progress: Callable[[int, int], None] | None = None,
 ) -> torch.Tensor:
     """For each state, the best of the policy's deterministic action and ``samples`` copies of it
     with N(0, sigma²) noise per dimension, clipped to [−1, 1], by the ensemble members' minimum
-    (``value="min"``) or mean (``"mean"``) success probability.
+    (``value="min"``) or mean (``"mean"``) success probability; a copy displaces the policy's own action
+    only when valued at least ``margin`` higher.
 
     Args:
         rows: ``(N, 8, 12)`` states in their stored row order; identical states share one search.
@@ -390,7 +396,9 @@ def searched_actions(
         repeated = states[:, None].expand(-1, samples + 1, -1).reshape(-1, states.shape[1])
         members = q_ensemble.probabilities(repeated, candidates.reshape(-1, ACTION_DIM))
         ranked = (members.min(dim=1).values if value == "min" else members.mean(dim=1)).reshape(states.shape[0], -1)
-        best[start:start + chunk] = candidates[torch.arange(states.shape[0]), ranked.argmax(dim=1)]
+        chosen = ranked.argmax(dim=1)
+        chosen[ranked.gather(1, chosen[:, None])[:, 0] < ranked[:, 0] + margin] = 0  # the own action, column 0
+        best[start:start + chunk] = candidates[torch.arange(states.shape[0]), chosen]
         if on_progress:
             on_progress(start + states.shape[0], unique.shape[0])
     return best[inverse]

@@ -82,6 +82,10 @@ def train(
     policy_target_value: Annotated[
         str | None, typer.Option("--policy-target-value", help="Rank those copies by the members' min (default, the actor's value) or mean.")
     ] = None,
+    policy_target_margin: Annotated[
+        float | None,
+        typer.Option("--policy-target-margin", min=0.0, help="A copy replaces the policy's own action as the target only when valued this much higher (default 0)."),
+    ] = None,
     sim: Annotated[str, typer.Option("--sim", help="Simulator plugin of the policy-selection episodes.")] = "mujoco",
     more_train: Annotated[
         list[Path] | None,
@@ -129,7 +133,7 @@ def train(
         ("steps", steps), ("eval_every", eval_every), ("learning_rate", learning_rate), ("train_size", train_size), ("ensemble_batches", ensemble_batches),
         ("selection_episodes", selection_episodes), ("q_network", q_network), ("dynamics_network", dynamics_network), ("anchor_weight", anchor_weight),
         ("exposure_weight", exposure_weight), ("policy_targets", policy_targets), ("screen", _names(screen)), ("policy_target_sigma", policy_target_sigma),
-        ("policy_target_weight", policy_target_weight), ("policy_target_value", policy_target_value),
+        ("policy_target_weight", policy_target_weight), ("policy_target_value", policy_target_value), ("policy_target_margin", policy_target_margin),
     )
     overrides = {key: value for key, value in chosen if value is not None}
     results = {}

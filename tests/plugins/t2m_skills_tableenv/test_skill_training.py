@@ -403,6 +403,16 @@ def test_searched_targets_are_never_valued_below_the_policys_action_and_identica
     torch.testing.assert_close(targets[32:], targets[:32])
     again = searched_actions(policy, q, rows, 256, 0.3, torch.Generator().manual_seed(0))
     torch.testing.assert_close(again, targets)
+    # the own action stays the target unless a copy beats it by the margin (no value here exceeds 0.95)
+    with torch.no_grad():
+        own_actions = policy(states)
+    kept = searched_actions(policy, q, rows, 256, 0.3, torch.Generator().manual_seed(0), margin=1.0)
+    torch.testing.assert_close(kept, own_actions)
+    moved = searched_actions(policy, q, rows, 256, 0.3, torch.Generator().manual_seed(0), margin=0.2)
+    gained = found >= own + 0.2
+    assert gained.float().mean() > 0.9
+    torch.testing.assert_close(moved[gained], targets[gained])
+    torch.testing.assert_close(moved[~gained], own_actions[~gained])
 
 
 class _Disputed(torch.nn.Module):
