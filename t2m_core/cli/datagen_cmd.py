@@ -55,7 +55,7 @@ def datagen(
     valid skills (train, validation) or unsimulated invalid ones (invalid). Rerunning the same
     command resumes: finished shards are kept. With --executor ray the chunks run on a Ray cluster,
     whose nodes must all see --out; the shards are the same bytes either way."""
-    from t2m_core.data.chunks import LIBRARY_SAMPLERS, SCENES, ProposalSource
+    from t2m_core.data.chunks import LIBRARY_SAMPLERS, SCENES, ProposalSource, rollout_scenes
     from t2m_core.data.generate import DatasetJob, default_workers, generate_dataset
     from t2m_core.data.proposals import checkpoint_digest, library_digest
     from t2m_core.data.scenes import DATA_SKILLS
@@ -69,7 +69,7 @@ def datagen(
         sim = get_registry().get("simulator", sim).name  # an unknown name fails here, with the choices
     if scenes.partition(":")[0] not in SCENES:
         raise T2MError(f"unknown scene source {scenes!r}", f"use one of: {', '.join(SCENES)}, or tasks:ID,ID")
-    rollouts = scenes.partition(":")[0] == "tasks"
+    rollouts = rollout_scenes(scenes)
     if rollouts and sampler not in LIBRARY_SAMPLERS:
         raise T2MError("--scenes tasks advances along the skeletons with a skill library's proposals", "add --sampler proposal (or planned)")
     if proposal_checkpoints is not None and sampler not in LIBRARY_SAMPLERS:

@@ -80,6 +80,11 @@ along those of the named tasks only; ``evaluation``, the single-skill evaluation
 success is reported in, not the report's or the selection's instances."""
 
 
+def rollout_scenes(scenes: str) -> bool:
+    """Whether the scene source ``scenes`` starts transitions along task rollouts (``tasks`` or ``tasks:ID,ID``)."""
+    return scenes.partition(":")[0] == "tasks"
+
+
 class DataGenerationError(T2MError):
     """A chunk that cannot be generated (unknown skill or split, a simulator that never succeeds)."""
 
@@ -194,8 +199,8 @@ class ChunkSpec:
 
     @property
     def rollouts(self) -> bool:
-        """Whether transitions start along task rollouts (``tasks`` or ``tasks:ID,ID``)."""
-        return self.scenes.partition(":")[0] == "tasks"
+        """Whether transitions start along task rollouts (:func:`rollout_scenes`)."""
+        return rollout_scenes(self.scenes)
 
     @property
     def simulated(self) -> bool:
