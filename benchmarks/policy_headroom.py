@@ -1,15 +1,15 @@
 """Is a skill's policy, or its Q-ensemble, what limits the policy's success? (docs/guide/skills.md#proposal-data)
 
     python benchmarks/policy_headroom.py [--checkpoints DIR] [--skills push] [--episodes 100]
-        [--samples 1024] [--sigma 0.3] [--sim mujoco] [--json OUT]
+        [--samples 1024] [--sigma 0.3] [--uniform 0] [--sim mujoco] [--json OUT]
 
 In each of the quality report's evaluation scenes (the same scenes, in the same order, as
 ``t2m skills report --episodes N``), from the same simulator snapshot, executes:
 
 - ``policy``: the deterministic policy's action (the report's policy success);
 - ``best_min``: of ``--samples`` actions, the policy's action plus N(0, sigma²) per dimension
-  (clipped to [−1, 1]; the first is the policy's own), the one with the highest min-of-8 Q: what the
-  actor's objective climbs towards;
+  (clipped to [−1, 1]; the first is the policy's own; a share ``--uniform`` of them drawn uniformly
+  over [−1, 1]⁴ instead), the one with the highest min-of-8 Q: what the actor's objective climbs towards;
 - ``best_mean``: of the same actions, the one with the highest mean of the 8 members.
 
 A policy that succeeds far less than ``best_min`` has not found its ensemble's optimum; one that
@@ -32,7 +32,9 @@ CHOICES = ("policy", "best_min", "best_mean")
 
 
 @torch.no_grad()
-def measure(checkpoints: Path | None, skill_name: str, simulator, episodes: int, samples: int, sigma: float, seed: int = 0) -> dict[str, dict]:
+def measure(
+    checkpoints: Path | None, skill_name: str, simulator, episodes: int, samples: int, sigma: float, uniform: float = 0.0, seed: int = 0
+) -> dict[str, dict]:
     """choice -> its outcome summary (``episodes``, ``success_rate``, ``outcomes``) for one skill."""
     from t2m_skills_tableenv.episodes import evaluation_episodes, outcome_summary
     from t2m_skills_tableenv.library import load_library
@@ -49,6 +51,9 @@ def measure(checkpoints: Path | None, skill_name: str, simulator, episodes: int,
         call, state = scene
         action = np.asarray(skill.policy(state[None]))[0]
         candidates = np.clip(action + noise.normal(0.0, sigma, (samples, action.shape[0])), -1.0, 1.0).astype(np.float32)
+        spread = round(uniform * (samples - 1))
+        if spread:
+            candidates[samples - spread:] = noise.uniform(-1.0, 1.0, (spread, action.shape[0]))
         candidates[0] = action
         members = np.asarray(skill.q_values(np.repeat(state[None], samples, axis=0), candidates))  # (samples, 8)
         chosen = {
@@ -71,20 +76,24 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--episodes", type=int, default=100)
     parser.add_argument("--samples", type=int, default=1024, help="noisy policy actions ranked per scene")
     parser.add_argument("--sigma", type=float, default=0.3, help="their noise, per action dimension (PolicyCEM's)")
+    parser.add_argument("--uniform", type=float, default=0.0, help="share of them drawn uniformly over the action box instead")
     parser.add_argument("--sim", default="mujoco")
     parser.add_argument("--json", type=Path, help="write the figures here")
     args = parser.parse_args(argv)
     skills = SKILLS if args.skills == "all" else tuple(args.skills.split(","))
     unknown = [s for s in skills if s not in SKILLS]
-    if unknown or args.samples < 1 or args.episodes < 1:
-        parser.error(f"unknown skills {unknown} (known: {', '.join(SKILLS)})" if unknown else "--samples and --episodes must be at least 1")
+    if unknown or args.samples < 1 or args.episodes < 1 or not 0.0 <= args.uniform <= 1.0:
+        parser.error(
+            f"unknown skills {unknown} (known: {', '.join(SKILLS)})" if unknown
+            else "--uniform must lie in [0, 1]" if not 0.0 <= args.uniform <= 1.0 else "--samples and --episodes must be at least 1"
+        )
     torch.set_num_threads(1)
     from t2m_core.errors import T2MError
     from t2m_core.registry import get_registry
 
     simulator = get_registry().create("simulator", args.sim)
     try:
-        results = {name: measure(args.checkpoints, name, simulator, args.episodes, args.samples, args.sigma) for name in skills}
+        results = {name: measure(args.checkpoints, name, simulator, args.episodes, args.samples, args.sigma, args.uniform) for name in skills}
     except (T2MError, OSError) as error:  # a missing or broken checkpoint: the library's own message
         print(f"error: {error}", file=sys.stderr)
         return 1
@@ -97,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         from t2m_core.atomic_files import write_json_atomic
 
-        write_json_atomic(args.json, {"checkpoints": str(args.checkpoints or "shipped"), "samples": args.samples, "sigma": args.sigma, "skills": results})
+        write_json_atomic(args.json, {"checkpoints": str(args.checkpoints or "shipped"), "samples": args.samples, "sigma": args.sigma, "uniform": args.uniform, "skills": results})
     return 0
 
 

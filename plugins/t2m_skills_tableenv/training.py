@@ -105,6 +105,10 @@ class StageSettings(BaseModel):
         0.0, ge=0, description="policy only, with policy_targets: a copy replaces the policy's own action as a state's target only "
         "when valued at least this much higher (0: any gain; a positive margin keeps the noise of near-ties out of the targets)"
     )
+    policy_target_uniform: float = Field(
+        0.0, ge=0, le=1, description="policy only, with policy_targets: the share of the copies drawn uniformly over the whole "
+        "action box instead of around the policy's action (0: all local; finds optima far from the policy's, e.g. a grasp turned a quarter)"
+    )
 
 
 DEFAULT_SETTINGS: dict[str, StageSettings] = {
@@ -320,7 +324,8 @@ class PolicyStage(Stage):
             generator = torch.Generator().manual_seed(self.settings.seed)
             self.targets = searched_actions(
                 self.network, self.q_ensemble, self.train.rows, self.settings.policy_targets, self.settings.policy_target_sigma, generator,
-                value=self.settings.policy_target_value, margin=self.settings.policy_target_margin, on_progress=on_progress,
+                value=self.settings.policy_target_value, margin=self.settings.policy_target_margin,
+                uniform=self.settings.policy_target_uniform, on_progress=on_progress,
             )
 
     def parameters_to_save(self) -> dict[str, nn.Module | torch.optim.Optimizer]:
@@ -369,13 +374,15 @@ def searched_actions(
     generator: torch.Generator,
     value: Literal["min", "mean"] = "min",
     margin: float = 0.0,
+    uniform: float = 0.0,
     pairs_per_batch: int = 65_536,
     on_progress: Callable[[int, int], None] | None = None,
 ) -> torch.Tensor:
     """For each state, the best of the policy's deterministic action and ``samples`` copies of it
     with N(0, sigma²) noise per dimension, clipped to [−1, 1], by the ensemble members' minimum
     (``value="min"``) or mean (``"mean"``) success probability; a copy displaces the policy's own action
-    only when valued at least ``margin`` higher.
+    only when valued at least ``margin`` higher. A share ``uniform`` of the copies (rounded) is drawn
+    uniformly over [−1, 1]⁴ instead, to reach optima far from the policy's action.
 
     Args:
         rows: ``(N, 8, 12)`` states in their stored row order; identical states share one search.
@@ -391,8 +398,10 @@ def searched_actions(
     for start in range(0, unique.shape[0], chunk):
         states = unique[start:start + chunk]
         action = policy(states)
-        noise = sigma * torch.randn(states.shape[0], samples, ACTION_DIM, generator=generator)
-        candidates = torch.cat((action[:, None], (action[:, None] + noise).clamp(-1.0, 1.0)), dim=1)  # (n, samples + 1, 4)
+        spread = round(uniform * samples)
+        noise = sigma * torch.randn(states.shape[0], samples - spread, ACTION_DIM, generator=generator)
+        anywhere = 2.0 * torch.rand(states.shape[0], spread, ACTION_DIM, generator=generator) - 1.0
+        candidates = torch.cat((action[:, None], (action[:, None] + noise).clamp(-1.0, 1.0), anywhere), dim=1)  # (n, samples + 1, 4)
         repeated = states[:, None].expand(-1, samples + 1, -1).reshape(-1, states.shape[1])
         members = q_ensemble.probabilities(repeated, candidates.reshape(-1, ACTION_DIM))
         ranked = (members.min(dim=1).values if value == "min" else members.mean(dim=1)).reshape(states.shape[0], -1)

@@ -86,6 +86,10 @@ def train(
         float | None,
         typer.Option("--policy-target-margin", min=0.0, help="A copy replaces the policy's own action as the target only when valued this much higher (default 0)."),
     ] = None,
+    policy_target_uniform: Annotated[
+        float | None,
+        typer.Option("--policy-target-uniform", min=0.0, max=1.0, help="Share of those copies drawn uniformly over the action box (default 0)."),
+    ] = None,
     sim: Annotated[str, typer.Option("--sim", help="Simulator plugin of the policy-selection episodes.")] = "mujoco",
     more_train: Annotated[
         list[Path] | None,
@@ -134,6 +138,7 @@ def train(
         ("selection_episodes", selection_episodes), ("q_network", q_network), ("dynamics_network", dynamics_network), ("anchor_weight", anchor_weight),
         ("exposure_weight", exposure_weight), ("policy_targets", policy_targets), ("screen", _names(screen)), ("policy_target_sigma", policy_target_sigma),
         ("policy_target_weight", policy_target_weight), ("policy_target_value", policy_target_value), ("policy_target_margin", policy_target_margin),
+        ("policy_target_uniform", policy_target_uniform),
     )
     overrides = {key: value for key, value in chosen if value is not None}
     results = {}

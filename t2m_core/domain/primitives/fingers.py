@@ -54,7 +54,7 @@ def finger_footprints(positions: np.ndarray, yaws: np.ndarray, opening: float | 
 def fingers_strike(state: GeometricState, spared: Collection[str], footprints: np.ndarray, tips: np.ndarray) -> np.ndarray:
     """``(B,)`` whether the ``(B, 2, 4, 2)`` finger footprints, their tips at ``(B,)`` heights (m), come
     within :data:`FINGER_CLEARANCE` of a part of an object other than the table and ``spared`` that
-    rises above the lowest fingertip."""
+    rises above that sample's fingertips."""
     return fingers_strike_of_states([state], np.zeros(len(tips), dtype=np.int64), spared, footprints, tips)
 
 
@@ -67,27 +67,32 @@ def fingers_strike_of_states(
     geometry: Callable[[str, ObjectPose], ObjectGeometry] = object_geometry,
 ) -> np.ndarray:
     """:func:`fingers_strike` of fingers b in ``states[state_of[b]]``, judged as one batch: a part
-    counts for a sample where it rises above the lowest fingertip of that sample's state."""
+    counts for a sample where it rises above that sample's own fingertips, so that a sample's
+    prediction never depends on the others in the batch."""
     edges = polygon_edges(footprints)
-    lowest = np.full(len(states), np.inf)
-    np.minimum.at(lowest, state_of, np.asarray(tips, dtype=np.float64))
+    tips = np.asarray(tips, dtype=np.float64)
+    sampled = np.bincount(state_of, minlength=len(states)) > 0
     parts: dict[ObjectKind, list[list[np.ndarray]]] = {kind: [[] for _ in states] for kind in FINGER_CLEARANCE}
-    for index, (state, low) in enumerate(zip(states, lowest, strict=True)):
-        if low == np.inf:
+    tops: dict[ObjectKind, list[list[float]]] = {kind: [[] for _ in states] for kind in FINGER_CLEARANCE}
+    for index, state in enumerate(states):
+        if not sampled[index]:
             continue  # no fingers in this state
         for name, pose in state.objects.items():
             if name not in spared and object_spec(name).kind in parts:
                 shape = geometry(name, pose)
-                rising = (corners[:, 2].max() > low for corners in shape.part_corners)
-                parts[shape.spec.kind][index] += [footprint for footprint, rises in zip(shape.footprints, rising, strict=True) if rises]
+                parts[shape.spec.kind][index] += list(shape.footprints)
+                tops[shape.spec.kind][index] += [float(corners[:, 2].max()) for corners in shape.part_corners]
     struck = np.zeros(len(footprints), dtype=bool)
     for kind, per_state in parts.items():
         most = max(len(of_state) for of_state in per_state)
         if most == 0:
             continue
-        # every state's parts, padded with polygons far beyond any clearance
-        padded = [pad_polygons(of_state + [_FAR] * (most - len(of_state))) for of_state in per_state]
-        struck |= comes_near(footprints, edges, pad_polygons(padded)[state_of], FINGER_CLEARANCE[kind])
+        # every state's parts, padded with polygons far beyond any clearance (never rising)
+        padded = pad_polygons([pad_polygons(of_state + [_FAR] * (most - len(of_state))) for of_state in per_state])
+        heights = np.array([of_state + [-np.inf] * (most - len(of_state)) for of_state in tops[kind]])  # (S, P) m
+        rising = heights[state_of] > tips[:, None]  # (B, P): the parts above each sample's fingertips
+        obstacles = np.where(rising[..., None, None], padded[state_of], _FAR[0])  # the others moved out of reach
+        struck |= comes_near(footprints, edges, obstacles, FINGER_CLEARANCE[kind])
     return struck
 
 

@@ -70,6 +70,18 @@ def test_the_screen_sees_a_neighbour_along_the_jaw_from_the_rows() -> None:
     assert screen_flags("pick", mixed, actions_of(ACROSS_Y, ACROSS_Y, ACROSS_X))[:, 0].tolist() == [True, False, False]
 
 
+def test_a_grasps_prediction_never_depends_on_the_other_grasps_in_its_batch() -> None:
+    # the hook (a few cm tall) beside the red box along y: a grasp at the box's centre passes above
+    # it, the same grasp 5 cm deeper strikes it
+    state = scene(rack=RACK_IN_WORKSPACE, hook=on_table("hook", 0.5, 0.25), red_box=on_table("red_box", 0.5, 0.1))
+    rows = skill_rows(state, ["red_box"])
+    high, deep = [0.0, 0.0, 0.0, 0.0], [0.0, 0.0, -0.05, 0.0]
+    assert screen_flags("pick", rows, actions_of(high))[:, 0].tolist() == [False]
+    assert screen_flags("pick", rows, actions_of(deep))[:, 0].tolist() == [True]
+    # ranked together (a planner's samples in one state), each keeps its own prediction
+    assert screen_flags("pick", np.repeat(rows, 3, axis=0), actions_of(high, deep, high))[:, 0].tolist() == [False, True, False]
+
+
 def test_every_action_of_a_call_the_primitive_refuses_is_in_the_way() -> None:
     # the invalid split's pairs: the table's all-zero row or the rack as Pick's argument
     state = neighbour_scene(0.05)

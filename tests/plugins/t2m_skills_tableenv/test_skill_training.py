@@ -415,6 +415,32 @@ def test_searched_targets_are_never_valued_below_the_policys_action_and_identica
     torch.testing.assert_close(moved[~gained], own_actions[~gained])
 
 
+class _FarPeak(torch.nn.Module):
+    """A test-double ensemble that rates only actions whose first component lies near +0.9 (0.99;
+    elsewhere 0.1)."""
+
+    def probabilities(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        return (0.1 + 0.89 * ((actions[:, :1] - 0.9).abs() < 0.1).float()).expand(-1, 8)
+
+
+def test_a_uniform_share_of_the_copies_reaches_an_optimum_the_local_noise_never_does() -> None:
+    from t2m_skills_tableenv.networks import GaussianPolicy
+    from t2m_skills_tableenv.training import searched_actions
+
+    torch.manual_seed(0)
+    policy, q = GaussianPolicy(), _FarPeak()
+    rows = synthetic(32, 3).rows
+    states = rows.reshape(32, -1)
+    with torch.no_grad():
+        own = policy(states)
+    assert bool((own[:, 0].abs() < 0.5).all())  # a fresh policy acts near 0, far from the peak
+    local = searched_actions(policy, q, rows, 256, 0.01, torch.Generator().manual_seed(0))
+    torch.testing.assert_close(local, own)  # σ = 0.01 never leaves the flat 0.1
+    spread = searched_actions(policy, q, rows, 256, 0.01, torch.Generator().manual_seed(0), uniform=0.5)
+    assert bool(((spread[:, 0] - 0.9).abs() < 0.1).all())  # 128 uniform copies: P(none within 0.1) = 0.95¹²⁸
+    assert spread.abs().max() <= 1.0
+
+
 class _Disputed(torch.nn.Module):
     """A test-double ensemble with two peaks of the action's first component: at −0.5 every member
     says 0.7; at +0.5 half say 1.0 and half 0.5 (a higher mean, a lower minimum)."""
