@@ -18,7 +18,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, NamedTuple
 
 import torch
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
@@ -109,6 +109,10 @@ class StageSettings(BaseModel):
         0.0, ge=0, le=1, description="policy only, with policy_targets: the share of the copies drawn uniformly over the whole "
         "action box instead of around the policy's action (0: all local; finds optima far from the policy's, e.g. a grasp turned a quarter)"
     )
+    policy_target_focus: float = Field(
+        0.0, ge=0, lt=1, description="policy only, with policy_targets: the share of each batch drawn from the states whose target "
+        "moved away from the policy's own action (0: uniform batches; a few moved states among thousands are otherwise rarely seen)"
+    )
 
 
 DEFAULT_SETTINGS: dict[str, StageSettings] = {
@@ -138,6 +142,10 @@ class Stage:
 
     def step(self, index: torch.Tensor, generator: torch.Generator) -> dict[str, float]:
         raise NotImplementedError
+
+    def batch(self, size: int, generator: torch.Generator) -> torch.Tensor:
+        """``(size,)`` training sample indices of one step, uniform with replacement."""
+        return torch.randint(self.train_size, (size,), generator=generator)
 
     def evaluate(self) -> Evaluation:
         raise NotImplementedError
@@ -314,6 +322,7 @@ class PolicyStage(Stage):
         self.target_entropy = -float(ACTION_DIM)
         self.settings = settings
         self.targets: torch.Tensor | None = None
+        self.moved = torch.empty(0, dtype=torch.long)  # indices of the samples whose target is not the starting policy's action
 
     @property
     def train_size(self) -> int:
@@ -322,11 +331,20 @@ class PolicyStage(Stage):
     def prepare(self, on_progress: Callable[[int, int], None] | None = None) -> None:
         if self.settings.policy_targets:
             generator = torch.Generator().manual_seed(self.settings.seed)
-            self.targets = searched_actions(
+            searched = searched_actions(
                 self.network, self.q_ensemble, self.train.rows, self.settings.policy_targets, self.settings.policy_target_sigma, generator,
                 value=self.settings.policy_target_value, margin=self.settings.policy_target_margin,
                 uniform=self.settings.policy_target_uniform, on_progress=on_progress,
             )
+            self.targets, self.moved = searched.actions, searched.moved.nonzero()[:, 0]
+
+    def batch(self, size: int, generator: torch.Generator) -> torch.Tensor:
+        """Uniform indices, of which a share ``policy_target_focus`` is drawn from the moved samples."""
+        focused = round(self.settings.policy_target_focus * size) if len(self.moved) else 0
+        index = torch.randint(self.train_size, (size - focused,), generator=generator)
+        if not focused:
+            return index
+        return torch.cat((index, self.moved[torch.randint(len(self.moved), (focused,), generator=generator)]))
 
     def parameters_to_save(self) -> dict[str, nn.Module | torch.optim.Optimizer]:
         return {"network": self.network, "optimizer": self.optimizer, "log_alpha": self.log_alpha, "alpha_optimizer": self.alpha_optimizer}
@@ -357,11 +375,22 @@ class PolicyStage(Stage):
         states = self.validation.states()
         q_min = self.q_ensemble.probabilities(states, self.network(states)).min(dim=1).values
         metrics = {"q_min_mean": float(q_min.mean()), "q_min_above_half": float((q_min > 0.5).float().mean())}
+        if len(self.moved):  # how far the policy still is from the targets that are not its starting action
+            own = self.network(self.train.states(self.moved))
+            metrics["moved_target_distance"] = float((own - self.targets[self.moved]).square().sum(-1).mean())
         if self.simulate is None:
             return Evaluation(metrics["q_min_mean"], metrics)
         metrics["simulated_success"] = float(self.simulate(self.network))
         # ties in simulated success (a few dozen episodes) go to the ensemble's judgement
         return Evaluation(metrics["simulated_success"] + 1e-3 * metrics["q_min_mean"], metrics)
+
+
+class SearchedTargets(NamedTuple):
+    """The actor's searched targets: ``actions`` ``(N, 4)``; ``moved`` ``(N,)`` bool, where a
+    copy displaced the policy's own action."""
+
+    actions: torch.Tensor
+    moved: torch.Tensor
 
 
 @torch.no_grad()
@@ -377,7 +406,7 @@ def searched_actions(
     uniform: float = 0.0,
     pairs_per_batch: int = 65_536,
     on_progress: Callable[[int, int], None] | None = None,
-) -> torch.Tensor:
+) -> SearchedTargets:
     """For each state, the best of the policy's deterministic action and ``samples`` copies of it
     with N(0, sigma²) noise per dimension, clipped to [−1, 1], by the ensemble members' minimum
     (``value="min"``) or mean (``"mean"``) success probability; a copy displaces the policy's own action
@@ -390,10 +419,11 @@ def searched_actions(
         on_progress: called with (distinct states searched, distinct states) after every batch.
 
     Returns:
-        ``(N, 4)`` actions; a state's target is never valued below the policy's own action.
+        The targets; a state's target is never valued below the policy's own action.
     """
     unique, inverse = torch.unique(rows.reshape(rows.shape[0], -1), dim=0, return_inverse=True)
     best = torch.empty(unique.shape[0], ACTION_DIM)
+    moved = torch.zeros(unique.shape[0], dtype=torch.bool)
     chunk = max(1, pairs_per_batch // (samples + 1))
     for start in range(0, unique.shape[0], chunk):
         states = unique[start:start + chunk]
@@ -408,9 +438,10 @@ def searched_actions(
         chosen = ranked.argmax(dim=1)
         chosen[ranked.gather(1, chosen[:, None])[:, 0] < ranked[:, 0] + margin] = 0  # the own action, column 0
         best[start:start + chunk] = candidates[torch.arange(states.shape[0]), chosen]
+        moved[start:start + chunk] = chosen != 0
         if on_progress:
             on_progress(start + states.shape[0], unique.shape[0])
-    return best[inverse]
+    return SearchedTargets(best[inverse], moved[inverse])
 
 
 class DynamicsStage(Stage):
@@ -551,7 +582,7 @@ def run_stage(
     started, first_step = time.perf_counter(), step
     running: dict[str, float] = {}
     while step < settings.steps and not _stopped_early(settings, step, best["step"]):
-        index = torch.randint(stage.train_size, (settings.batch_size,), generator=generator)
+        index = stage.batch(settings.batch_size, generator)
         for key, value in stage.step(index, generator).items():
             running[key] = running.get(key, 0.0) + value
         step += 1

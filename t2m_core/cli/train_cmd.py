@@ -90,6 +90,11 @@ def train(
         float | None,
         typer.Option("--policy-target-uniform", min=0.0, max=1.0, help="Share of those copies drawn uniformly over the action box (default 0)."),
     ] = None,
+    policy_target_focus: Annotated[
+        float | None,
+        typer.Option("--policy-target-focus", min=0.0, max=0.99,
+                     help="Share of each batch drawn from the states whose target moved from the policy's own action (default 0)."),
+    ] = None,
     sim: Annotated[str, typer.Option("--sim", help="Simulator plugin of the policy-selection episodes.")] = "mujoco",
     more_train: Annotated[
         list[Path] | None,
@@ -138,7 +143,7 @@ def train(
         ("selection_episodes", selection_episodes), ("q_network", q_network), ("dynamics_network", dynamics_network), ("anchor_weight", anchor_weight),
         ("exposure_weight", exposure_weight), ("policy_targets", policy_targets), ("screen", _names(screen)), ("policy_target_sigma", policy_target_sigma),
         ("policy_target_weight", policy_target_weight), ("policy_target_value", policy_target_value), ("policy_target_margin", policy_target_margin),
-        ("policy_target_uniform", policy_target_uniform),
+        ("policy_target_uniform", policy_target_uniform), ("policy_target_focus", policy_target_focus),
     )
     overrides = {key: value for key, value in chosen if value is not None}
     results = {}

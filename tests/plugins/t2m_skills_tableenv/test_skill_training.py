@@ -391,7 +391,7 @@ def test_searched_targets_are_never_valued_below_the_policys_action_and_identica
     rows[32:] = rows[:32]  # every state twice
     progress: list[tuple[int, int]] = []
     targets = searched_actions(policy, q, rows, 256, 0.3, torch.Generator().manual_seed(0), pairs_per_batch=257 * 10,
-                               on_progress=lambda done, total: progress.append((done, total)))
+                               on_progress=lambda done, total: progress.append((done, total))).actions
     assert progress == [(10, 32), (20, 32), (30, 32), (32, 32)]  # 32 distinct states, 10 per batch
     states = rows.reshape(64, -1)
     with torch.no_grad():
@@ -402,17 +402,19 @@ def test_searched_targets_are_never_valued_below_the_policys_action_and_identica
     assert bool((own < 0.6).all()) and (found > 0.7).float().mean() > 0.9  # the higher peak, 0.7 away
     torch.testing.assert_close(targets[32:], targets[:32])
     again = searched_actions(policy, q, rows, 256, 0.3, torch.Generator().manual_seed(0))
-    torch.testing.assert_close(again, targets)
+    torch.testing.assert_close(again.actions, targets)
     # the own action stays the target unless a copy beats it by the margin (no value here exceeds 0.95)
     with torch.no_grad():
         own_actions = policy(states)
     kept = searched_actions(policy, q, rows, 256, 0.3, torch.Generator().manual_seed(0), margin=1.0)
-    torch.testing.assert_close(kept, own_actions)
+    torch.testing.assert_close(kept.actions, own_actions)
+    assert not kept.moved.any()
     moved = searched_actions(policy, q, rows, 256, 0.3, torch.Generator().manual_seed(0), margin=0.2)
     gained = found >= own + 0.2
     assert gained.float().mean() > 0.9
-    torch.testing.assert_close(moved[gained], targets[gained])
-    torch.testing.assert_close(moved[~gained], own_actions[~gained])
+    torch.testing.assert_close(moved.actions[gained], targets[gained])
+    torch.testing.assert_close(moved.actions[~gained], own_actions[~gained])
+    assert torch.equal(moved.moved, gained)  # flagged exactly where a copy displaced the own action
 
 
 class _FarPeak(torch.nn.Module):
@@ -434,9 +436,9 @@ def test_a_uniform_share_of_the_copies_reaches_an_optimum_the_local_noise_never_
     with torch.no_grad():
         own = policy(states)
     assert bool((own[:, 0].abs() < 0.5).all())  # a fresh policy acts near 0, far from the peak
-    local = searched_actions(policy, q, rows, 256, 0.01, torch.Generator().manual_seed(0))
+    local = searched_actions(policy, q, rows, 256, 0.01, torch.Generator().manual_seed(0)).actions
     torch.testing.assert_close(local, own)  # σ = 0.01 never leaves the flat 0.1
-    spread = searched_actions(policy, q, rows, 256, 0.01, torch.Generator().manual_seed(0), uniform=0.5)
+    spread = searched_actions(policy, q, rows, 256, 0.01, torch.Generator().manual_seed(0), uniform=0.5).actions
     assert bool(((spread[:, 0] - 0.9).abs() < 0.1).all())  # 128 uniform copies: P(none within 0.1) = 0.95¹²⁸
     assert spread.abs().max() <= 1.0
 
@@ -459,7 +461,7 @@ def test_searched_targets_rank_by_the_members_minimum_or_mean(value, side) -> No
 
     torch.manual_seed(0)
     rows = synthetic(32, 4).rows
-    targets = searched_actions(GaussianPolicy(), _Disputed(), rows, 512, 0.3, torch.Generator().manual_seed(0), value=value)
+    targets = searched_actions(GaussianPolicy(), _Disputed(), rows, 512, 0.3, torch.Generator().manual_seed(0), value=value).actions
     assert (torch.sign(targets[:, 0]) == side).float().mean() > 0.9
     assert (targets[:, 0] - 0.5 * side).abs().median() < 0.1
 
@@ -477,6 +479,26 @@ def test_the_policy_is_pulled_towards_its_targets_by_their_weight(tmp_path, weig
     with torch.no_grad():
         distance = (stage.network(train.states()) - 0.5).abs().max()
     assert (distance < 0.1) if weight else (distance > 0.2)
+
+
+def test_focused_batches_draw_their_share_from_the_moved_states_and_fit_them_sooner(tmp_path) -> None:
+    train, validation = synthetic(1024, 0), synthetic(256, 1)
+    fitted = {}
+    for focus in (0.0, 0.5):
+        settings = StageSettings(steps=100, batch_size=128, learning_rate=3e-3, eval_every=100, policy_targets=16, policy_target_focus=focus)
+        torch.manual_seed(0)
+        stage = PolicyStage(train, validation, _Flat(), settings)
+        stage.prepare()
+        assert len(stage.moved) == 0  # a flat ensemble never prefers a copy to the own action
+        with torch.no_grad():
+            stage.targets = stage.network(train.states())  # keep every action where it is ...
+        stage.moved = torch.arange(8) * 100  # ... except 8 of the 1 024 states, sent to a corner
+        stage.targets[stage.moved] = 0.9
+        index = stage.batch(128, torch.Generator().manual_seed(1))
+        assert index.shape == (128,) and int(torch.isin(index, stage.moved).sum()) >= round(focus * 128)
+        run_stage(stage, settings, tmp_path / str(focus))
+        fitted[focus] = stage.evaluate().metrics["moved_target_distance"]
+    assert fitted[0.5] < 0.2 * fitted[0.0]
 
 
 def test_a_killed_policy_run_with_searched_targets_resumes_to_the_same_policy(tmp_path) -> None:
