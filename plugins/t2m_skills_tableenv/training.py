@@ -109,6 +109,10 @@ class StageSettings(BaseModel):
         0.0, ge=0, le=1, description="policy only, with policy_targets: the share of the copies drawn uniformly over the whole "
         "action box instead of around the policy's action (0: all local; finds optima far from the policy's, e.g. a grasp turned a quarter)"
     )
+    policy_target_tolerance: float = Field(
+        0.0, ge=0, description="policy only, with policy_targets: copies valued within this much of the best count as best and the "
+        "nearest of them to the policy's action becomes the target (0: the best alone; consistent targets between similar states)"
+    )
     policy_target_focus: float = Field(
         0.0, ge=0, lt=1, description="policy only, with policy_targets: the share of each batch drawn from the states whose target "
         "moved away from the policy's own action (0: uniform batches; a few moved states among thousands are otherwise rarely seen)"
@@ -334,7 +338,7 @@ class PolicyStage(Stage):
             searched = searched_actions(
                 self.network, self.q_ensemble, self.train.rows, self.settings.policy_targets, self.settings.policy_target_sigma, generator,
                 value=self.settings.policy_target_value, margin=self.settings.policy_target_margin,
-                uniform=self.settings.policy_target_uniform, on_progress=on_progress,
+                uniform=self.settings.policy_target_uniform, tolerance=self.settings.policy_target_tolerance, on_progress=on_progress,
             )
             self.targets, self.moved = searched.actions, searched.moved.nonzero()[:, 0]
 
@@ -404,6 +408,7 @@ def searched_actions(
     value: Literal["min", "mean"] = "min",
     margin: float = 0.0,
     uniform: float = 0.0,
+    tolerance: float = 0.0,
     pairs_per_batch: int = 65_536,
     on_progress: Callable[[int, int], None] | None = None,
 ) -> SearchedTargets:
@@ -411,7 +416,10 @@ def searched_actions(
     with N(0, sigma²) noise per dimension, clipped to [−1, 1], by the ensemble members' minimum
     (``value="min"``) or mean (``"mean"``) success probability; a copy displaces the policy's own action
     only when valued at least ``margin`` higher. A share ``uniform`` of the copies (rounded) is drawn
-    uniformly over [−1, 1]⁴ instead, to reach optima far from the policy's action.
+    uniformly over [−1, 1]⁴ instead, to reach optima far from the policy's action. With ``tolerance``
+    > 0 every copy valued within it of the best counts as best, and the nearest of them to the
+    policy's action is chosen: of two equally good optima a state's target is the one its neighbours'
+    targets also lie towards, not whichever the noise happened to rank first.
 
     Args:
         rows: ``(N, 8, 12)`` states in their stored row order; identical states share one search.
@@ -435,7 +443,12 @@ def searched_actions(
         repeated = states[:, None].expand(-1, samples + 1, -1).reshape(-1, states.shape[1])
         members = q_ensemble.probabilities(repeated, candidates.reshape(-1, ACTION_DIM))
         ranked = (members.min(dim=1).values if value == "min" else members.mean(dim=1)).reshape(states.shape[0], -1)
-        chosen = ranked.argmax(dim=1)
+        if tolerance > 0:
+            near_best = ranked >= ranked.max(dim=1, keepdim=True).values - tolerance
+            moves = (candidates - action[:, None]).square().sum(-1)
+            chosen = moves.masked_fill(~near_best, math.inf).argmin(dim=1)
+        else:
+            chosen = ranked.argmax(dim=1)
         chosen[ranked.gather(1, chosen[:, None])[:, 0] < ranked[:, 0] + margin] = 0  # the own action, column 0
         best[start:start + chunk] = candidates[torch.arange(states.shape[0]), chosen]
         moved[start:start + chunk] = chosen != 0

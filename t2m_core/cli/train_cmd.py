@@ -90,6 +90,11 @@ def train(
         float | None,
         typer.Option("--policy-target-uniform", min=0.0, max=1.0, help="Share of those copies drawn uniformly over the action box (default 0)."),
     ] = None,
+    policy_target_tolerance: Annotated[
+        float | None,
+        typer.Option("--policy-target-tolerance", min=0.0,
+                     help="Copies valued within this much of the best count as best; the nearest to the policy's action is the target (default 0)."),
+    ] = None,
     policy_target_focus: Annotated[
         float | None,
         typer.Option("--policy-target-focus", min=0.0, max=0.99,
@@ -144,6 +149,7 @@ def train(
         ("exposure_weight", exposure_weight), ("policy_targets", policy_targets), ("screen", _names(screen)), ("policy_target_sigma", policy_target_sigma),
         ("policy_target_weight", policy_target_weight), ("policy_target_value", policy_target_value), ("policy_target_margin", policy_target_margin),
         ("policy_target_uniform", policy_target_uniform), ("policy_target_focus", policy_target_focus),
+        ("policy_target_tolerance", policy_target_tolerance),
     )
     overrides = {key: value for key, value in chosen if value is not None}
     results = {}

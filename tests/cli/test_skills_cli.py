@@ -205,14 +205,14 @@ def test_a_policy_trained_towards_searched_targets_records_them_and_a_bad_rankin
     common = ["--skill", "pick", "--data", str(dataset), "--steps", "20", "--eval-every", "10", "--selection-episodes", "0"]
     assert runner.invoke(app, ["train", *common, "--model", "q", "--out", str(base)]).exit_code == 0
     searched = ["--model", "policy", "--policy-targets", "8", "--policy-target-value", "mean", "--policy-target-weight", "2",
-                "--policy-target-focus", "0.25", "--json"]
+                "--policy-target-focus", "0.25", "--policy-target-tolerance", "0.05", "--json"]
     result = runner.invoke(app, ["train", *common, *searched, "--out", str(base)])
     assert result.exit_code == 0, result.output
     outcome = json.loads(result.stdout[result.stdout.index("{"):])["pick"]["policy"]
     assert outcome["target_search_seconds"] >= 0 and "train_target_distance" in (base / "pick" / "metrics-policy.jsonl").read_text()
     training = json.loads((base / "pick" / "config.json").read_text())["models"]["policy"]["training"]
     assert (training["policy_targets"], training["policy_target_value"], training["policy_target_weight"]) == (8, "mean", 2.0)
-    assert training["policy_target_focus"] == 0.25
+    assert (training["policy_target_focus"], training["policy_target_tolerance"]) == (0.25, 0.05)
     whole = runner.invoke(app, ["train", *common, "--model", "policy", "--policy-targets", "8", "--policy-target-focus", "1", "--out", str(tmp_path / "y")])
     assert whole.exit_code == 2 and "--policy-target-focus" in whole.output and not (tmp_path / "y").exists()  # a batch of moved states alone
     bad = runner.invoke(app, ["train", *common, "--model", "policy", "--policy-targets", "8", "--policy-target-value", "median", "--out", str(base)])

@@ -466,6 +466,36 @@ def test_searched_targets_rank_by_the_members_minimum_or_mean(value, side) -> No
     assert (targets[:, 0] - 0.5 * side).abs().median() < 0.1
 
 
+class _TwinPeaks(torch.nn.Module):
+    """A test-double ensemble valuing the action's first component at ±0.6 equally (1.0 within 0.15 of
+    either, 0.2 elsewhere)."""
+
+    def probabilities(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        return (0.2 + 0.8 * ((actions[:, :1].abs() - 0.6).abs() < 0.15).float()).expand(-1, 8)
+
+
+def test_a_tolerance_sends_every_target_to_the_nearest_of_two_equal_optima() -> None:
+    from t2m_skills_tableenv.networks import GaussianPolicy
+    from t2m_skills_tableenv.training import searched_actions
+
+    torch.manual_seed(0)
+    policy, rows = GaussianPolicy(), synthetic(64, 5).rows
+    with torch.no_grad():
+        own = policy(rows.reshape(64, -1))
+    between = own[:, 0].abs() < 0.4  # between the peaks, both within the noise's reach
+    assert between.sum() >= 32
+    best = searched_actions(policy, _TwinPeaks(), rows, 512, 0.5, torch.Generator().manual_seed(0))
+    near = searched_actions(policy, _TwinPeaks(), rows, 512, 0.5, torch.Generator().manual_seed(0), tolerance=0.01)
+    assert bool(best.moved[between].all() and near.moved[between].all())
+    own_side = torch.sign(own[:, 0])
+    assert 0.2 < float((torch.sign(best.actions[between, 0]) == own_side[between]).float().mean()) < 0.8  # the first-ranked: either side
+    closer = between & (own[:, 0].abs() > 0.1)  # clearly nearer its own side's peak
+    assert closer.sum() >= 10 and bool((torch.sign(near.actions[closer, 0]) == own_side[closer]).all())
+    moved_best = (best.actions - own).square().sum(-1)[between]
+    moved_near = (near.actions - own).square().sum(-1)[between]
+    assert float(moved_near.mean()) < 0.5 * float(moved_best.mean())  # the smallest move that reaches the optimum
+
+
 @pytest.mark.parametrize("weight", [0.0, 1.0])
 def test_the_policy_is_pulled_towards_its_targets_by_their_weight(tmp_path, weight) -> None:
     train, validation = synthetic(1024, 0), synthetic(256, 1)
