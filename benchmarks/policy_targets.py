@@ -1,12 +1,12 @@
 """Are a skill's searched actor targets learnable, and did a fine-tuned policy reach them?
 (docs/guide/skills.md#searched-actor-targets)
 
-    python benchmarks/policy_targets.py --data DIR [--skill pick] [--checkpoints DIR] [--every 4]
+    python benchmarks/policy_targets.py --data DIR [--skill pick] [--checkpoints DIR]
         [--samples 512] [--sigma 0.3] [--margin 0.3] [--tolerance 0.05] [--policies A,B] [--json OUT]
 
 Searches the targets of ``t2m train --policy-targets`` twice, with seeds 0 and 1, from the library's
-policy on the train split of ``--data`` (every ``--every``-th transition: datasets of four actions per
-scene repeat each state four times), and prints:
+policy on the distinct states of the train split of ``--data`` (datasets of several actions per
+scene repeat each state), and prints:
 
 - ``moved``: states whose target is not the policy's own action, in each search and in both;
 - ``own_to_target``: the mean squared distance (4 normalised dimensions) from the policy's action to
@@ -35,7 +35,7 @@ REACHED = 0.9
 
 @torch.no_grad()
 def measure(
-    data: Path, skill: str, checkpoints: Path | None, every: int, samples: int, sigma: float, margin: float, tolerance: float,
+    data: Path, skill: str, checkpoints: Path | None, samples: int, sigma: float, margin: float, tolerance: float,
     policies: list[Path],
 ) -> dict:
     """The figures described in the module docstring, as a dictionary."""
@@ -43,12 +43,13 @@ def measure(
     from t2m_skills_tableenv.dataset import SkillTensors
     from t2m_skills_tableenv.networks import GaussianPolicy
     from t2m_skills_tableenv.options import SHIPPED_CHECKPOINTS
-    from t2m_skills_tableenv.training import searched_actions
+    from t2m_skills_tableenv.training import WEIGHT_FILES, searched_actions
 
     directory = (checkpoints or SHIPPED_CHECKPOINTS) / skill
     q_ensemble = load_q(directory).eval()
-    policy = load_weights(directory / "policy.safetensors", GaussianPolicy()).eval()
-    rows = SkillTensors.load(data / skill / "train").rows[::every]
+    policy = load_weights(directory / WEIGHT_FILES["policy"], GaussianPolicy()).eval()
+    stored = SkillTensors.load(data / skill / "train").rows
+    rows = torch.unique(stored.reshape(stored.shape[0], -1), dim=0).reshape(-1, *stored.shape[1:])
     states = rows.reshape(rows.shape[0], -1)
     own = policy(states)
     first, second = (
@@ -81,7 +82,6 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--data", type=Path, required=True, help="dataset directory (DIR/<skill>/train)")
     parser.add_argument("--skill", choices=SKILLS, default="pick")
     parser.add_argument("--checkpoints", type=Path, default=None, help="skill library directory (default: the shipped one)")
-    parser.add_argument("--every", type=int, default=4, help="keep every N-th transition (default 4)")
     parser.add_argument("--samples", type=int, default=512)
     parser.add_argument("--sigma", type=float, default=0.3)
     parser.add_argument("--margin", type=float, default=0.3)
@@ -90,14 +90,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--json", type=Path, default=None, help="write the figures here")
     args = parser.parse_args(argv)
-    if args.every < 1 or args.samples < 1:
-        parser.error("--every and --samples must be at least 1")
+    if args.samples < 1:
+        parser.error("--samples must be at least 1")
     torch.set_num_threads(args.threads)
     from t2m_core.errors import T2MError
 
     policies = [Path(p) for p in args.policies.split(",") if p]
     try:
-        figures = measure(args.data, args.skill, args.checkpoints, args.every, args.samples, args.sigma, args.margin, args.tolerance, policies)
+        figures = measure(args.data, args.skill, args.checkpoints, args.samples, args.sigma, args.margin, args.tolerance, policies)
     except (T2MError, FileNotFoundError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 1
