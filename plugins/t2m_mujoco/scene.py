@@ -83,20 +83,18 @@ def _add_object(spec, mj, name: str) -> None:
     common = {"rgba": list(obj.rgba), "friction": friction, "priority": 1 if obj.kind is not ObjectKind.RACK else 0}
     if obj.kind is ObjectKind.HOOK:
         hook = obj.hook
-        total = hook.head_length + hook.handle_length + hook.radius
-        for part in hook.cylinders():
+        for part, mass in zip(hook.cylinders(), hook.mass_split(obj.mass), strict=True):
             length = part.length
             if length == 0.0:
                 geom = body.add_geom(name=f"{name}/{part.name}", type=mj.mjtGeom.mjGEOM_SPHERE, size=[part.radius, 0, 0],
                                      pos=list(part.center), **common)
-                geom.mass = obj.mass * hook.radius / total
             else:
                 axis = np.array([1.0, 0, 0]) if part.axis == "x" else np.array([0, 1.0, 0])
                 half = length / 2 - part.radius  # capsule caps keep the cylinder's total length
                 center = np.array(part.center)
                 geom = body.add_geom(name=f"{name}/{part.name}", type=mj.mjtGeom.mjGEOM_CAPSULE, size=[part.radius, 0, 0],
                                      fromto=[*(center - half * axis), *(center + half * axis)], **common)
-                geom.mass = obj.mass * length / total
+            geom.mass = mass
             geom.contype, geom.conaffinity = OBJECT_BIT, TABLE_BIT | OBJECT_BIT
     else:
         parts = obj.parts()

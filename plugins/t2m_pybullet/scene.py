@@ -101,20 +101,16 @@ def _free_body(client, pybullet, spec, parked: tuple[float, float, float]) -> tu
     """A movable compound body of ``spec`` (mass split over its parts); returns its id and centre of
     mass in the object frame."""
     if spec.kind is ObjectKind.HOOK:
-        hook = spec.hook
-        total = hook.head_length + hook.handle_length + hook.radius
         parts = []
-        for part in hook.cylinders():
+        for part in spec.hook.cylinders():
             if part.length == 0.0:
-                parts.append((pybullet.GEOM_SPHERE, {"radius": part.radius}, part.center, (0, 0, 0, 1), hook.radius / total))
+                parts.append((pybullet.GEOM_SPHERE, {"radius": part.radius}, part.center, (0, 0, 0, 1)))
             else:
                 turn = _QUARTER_ABOUT_Y if part.axis == "x" else _QUARTER_ABOUT_X
-                shape = {"radius": part.radius, "length": part.length}
-                parts.append((pybullet.GEOM_CYLINDER, shape, part.center, turn, part.length / total))
+                parts.append((pybullet.GEOM_CYLINDER, {"radius": part.radius, "length": part.length}, part.center, turn))
     else:
-        boxes = spec.parts()
-        parts = [(pybullet.GEOM_BOX, {"halfExtents": [s / 2 for s in box.size]}, box.center, (0, 0, 0, 1), 1 / len(boxes)) for box in boxes]
-    com = sum(np.array(center) * share for _type, _shape, center, _turn, share in parts)
+        parts = [(pybullet.GEOM_BOX, {"halfExtents": [s / 2 for s in box.size]}, box.center, (0, 0, 0, 1)) for box in spec.parts()]
+    com = spec.centre_of_mass()  # the mass split over the parts as the domain says (the hook's by length)
     collision = client.createCollisionShapeArray(
         shapeTypes=[p[0] for p in parts],
         radii=[p[1].get("radius", 0.0) for p in parts],

@@ -76,6 +76,13 @@ class HookGeometry:
             CylinderPart("joint", r, 0.0, "x", ((l_ - r) / 2, hy * h / 2 - dy, 0.0)),
         )
 
+    def mass_split(self, mass: float) -> tuple[float, ...]:
+        """``mass`` (kg) split over :meth:`cylinders` in proportion to their lengths (the joint
+        sphere's to its radius), as the simulators build the hook: its centre of mass lies about 8 cm
+        from the bounding box's centre, towards the corner where handle and head meet."""
+        total = self.head_length + self.handle_length + self.radius
+        return tuple(mass * (part.length if part.length > 0.0 else part.radius) / total for part in self.cylinders())
+
     def footprint(self) -> tuple[BoxPart, ...]:
         """The two boxes used by the geometric tests: handle 0.40 × 0.04 and head 0.04 × 0.22."""
         h, l_, r = self.head_length, self.handle_length, self.radius
@@ -147,6 +154,17 @@ class ObjectSpec:
         if self.kind is ObjectKind.HOOK and self.hook is not None:
             return self.hook.footprint()
         return (BoxPart("body", self.size, (0.0, 0.0, 0.0)),)
+
+    def centre_of_mass(self) -> np.ndarray:
+        """``(3,)`` centre of mass in the object frame, metres, as the simulators build the body: the
+        hook's mass split over its cylinders (:meth:`HookGeometry.mass_split`), any other object's
+        equally over its :meth:`parts` (a box's is its origin)."""
+        if self.kind is ObjectKind.HOOK and self.hook is not None:
+            centres, shares = [part.center for part in self.hook.cylinders()], self.hook.mass_split(1.0)
+        else:
+            parts = self.parts()
+            centres, shares = [part.center for part in parts], (1.0 / len(parts),) * len(parts)
+        return np.asarray(shares) @ np.asarray(centres, dtype=np.float64)
 
     def convex_parts(self) -> tuple[BoxPart, ...]:
         """The convex boxes that the geometric tests use, object frame: the box

@@ -484,6 +484,15 @@ def test_place_margins_measure_the_drop_to_the_support_and_the_workspace(holding
     # on the table 5 cm and 2 cm inside its edge y = 0.45, and 3 cm beyond it (it falls: below_table)
     edge = np.array([PLACE.to_physical(_table_action(0.5, y)) for y in (0.40, 0.43, 0.48)])
     np.testing.assert_allclose(PLACE.screen_of_states([holding], ["red_box", "table"], edge, np.zeros(3, dtype=int))["support_margin"], [0.05, 0.02, -0.03], atol=1e-12)
+    # The hook's weight lies 5.7 cm towards its handle (−y, yaw 0) from its origin: released 4 cm
+    # inside the edge y = −0.45, its origin is inside but its centre of mass 1.7 cm beyond (it falls).
+    hook_held = GeometricState({**holding.objects, "hook": ObjectPose([0.45, 0.1, 0.38])}, holding.ee_position, held="hook")
+    del hook_held.objects["red_box"]
+    centre = OBJECTS["hook"].centre_of_mass()
+    at_edge = _table_action(0.5, -0.41)  # physical, θ = 0
+    judged = PLACE.screen_of_states([hook_held], ["hook", "table"], at_edge[None], np.zeros(1, dtype=int))
+    np.testing.assert_allclose(judged["support_margin"], [0.04 - 0.0567], atol=2e-4)
+    np.testing.assert_allclose(judged["support_margin"], [0.04 + centre[1]], atol=1e-12)
     near = PLACE.to_physical(_table_action(0.35, 0.35))  # 5 cm short of the near edge: the precheck refuses it
     table = PLACE.screen_of_states([holding], ["red_box", "table"], near[None], np.zeros(1, dtype=int))
     assert table["workspace_margin"][0] == pytest.approx(-0.05) and PLACE.precheck(holding, ["red_box", "table"], _table_action(0.35, 0.35)) == "not_in_workspace"

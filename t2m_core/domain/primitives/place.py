@@ -29,6 +29,7 @@ from t2m_core.domain.geometry import (
     wrap_angle,
     yaw_to_quat,
     yawed_footprints,
+    yawed_polygons,
 )
 from t2m_core.domain.objects import ObjectKind, object_spec
 from t2m_core.domain.primitives.base import (
@@ -145,8 +146,9 @@ class Place(Primitive):
         fails, and the measured placements fail mostly below −1 mm); ``"workspace_margin"``, how far
         inside the workspace the release lies (:func:`~t2m_core.domain.constants.workspace_margin`;
         outside, the precheck fails); and ``"support_margin"``, how far inside the target's top the
-        held object's centre lies at the release (:func:`~t2m_core.domain.geometry.inside_margins`;
-        beyond the table's edge the object falls, ``below_table``)."""
+        held object's centre of mass lies at the release (:func:`~t2m_core.domain.geometry.inside_margins`;
+        beyond the table's edge the object falls, ``below_table``; the hook's lies 8 cm from its
+        origin, :meth:`~t2m_core.domain.objects.ObjectSpec.centre_of_mass`)."""
         obj, target = self.check_arguments(states[0], arguments)
         physical, state_of = np.asarray(physical, dtype=np.float64), np.asarray(state_of, dtype=np.int64)
         geometry = object_geometry_memo()
@@ -174,6 +176,7 @@ class Place(Primitive):
             footprints = yawed_footprints(object_spec(obj), positions, yaws)  # (B, P, 4, 2)
             obstacles = pad_polygons(obstacles)[state_of]  # (B, N, K, 2)
             clearance = nearest_gaps(footprints, polygon_edges(footprints), obstacles, TOOL_CLEARANCE + CLEARANCE_RANGE) - TOOL_CLEARANCE
+        mass_centres = yawed_polygons(object_spec(obj).centre_of_mass()[None, None, :2], positions, yaws)[:, 0, 0]  # (B, 2)
         # the EE's height above the held object's lowest point, and the target's surface
         lowest = np.array([state.ee_position[2] - shape.aabb[0][2] for state, shape in zip(states, held_geometry, strict=True)])
         surface = np.array([state.objects[target].position[2] for state in states])
@@ -182,7 +185,7 @@ class Place(Primitive):
             "clearance": clearance,
             "support_gap": release[:, 2] - lowest[state_of] - surface[state_of],
             "workspace_margin": workspace_margin(release[:, 0], release[:, 1]),
-            "support_margin": inside_margins(positions[:, :2], tops[state_of]),
+            "support_margin": inside_margins(mass_centres, tops[state_of]),
         }
 
     def precheck(self, state: GeometricState, arguments: Sequence[str], action: np.ndarray) -> str | None:

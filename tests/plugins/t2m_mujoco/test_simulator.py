@@ -45,3 +45,21 @@ def test_blocked_sweep_under_the_reference_threshold_creeps(sim, monkeypatch):
     monkeypatch.setattr(rules, "STALLED_SWEEP_SPEED", rules.STALLED_SPEED)
     ticks, _failure, _moved = sweep_into_rack(sim)
     assert ticks > 300
+
+
+def test_compiled_bodies_put_their_mass_where_the_domain_says():
+    """MuJoCo's own inertia of each compiled body (its centre of mass from the geoms' masses and
+    shapes) lies where ``ObjectSpec.centre_of_mass`` says: the hook's at (0.060, −0.057) from its
+    bounding box's centre, towards the corner of handle and head, by the lengths of its capsules."""
+    from t2m_core.domain.objects import object_spec
+    from t2m_mujoco.scene import build_scene
+
+    scene = build_scene(("table", "rack", "hook", "red_box"))
+    hook = object_spec("hook").hook
+    lengths = np.array([hook.handle_length, hook.head_length, hook.radius])  # handle, head, joint
+    by_hand = lengths @ np.array([part.center for part in hook.cylinders()]) / lengths.sum()
+    np.testing.assert_allclose(by_hand[:2], [0.0597, -0.0567], atol=1e-4)
+    for name in ("hook", "red_box", "rack"):
+        body = scene.body[name]
+        np.testing.assert_allclose(scene.model.body_ipos[body], object_spec(name).centre_of_mass(), atol=1e-9, err_msg=name)
+        assert scene.model.body_mass[body] == pytest.approx(object_spec(name).mass)
