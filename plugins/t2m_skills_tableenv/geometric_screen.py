@@ -47,7 +47,7 @@ clearances and ``reach_margin`` inside the arm's reach (negative where ``in_the_
 ``unreachable``); Push's ``under_depth`` of the box under the rack and ``leg_clearance`` of the
 swept box from the rack's legs; Place's ``clearance`` of the set-down object from the bystanders,
 ``support_gap`` between its lowest point and the target's surface at the release,
-``workspace_margin`` of the release and ``support_margin`` of its centre inside the target's top.
+``workspace_margin`` of the release and ``support_margin`` of its centre of mass inside the target's top.
 The others are flags."""
 REFUSED_MARGIN = -np.inf
 """The margin of a call the primitive refuses (every flag raised); a state of no known world reads
