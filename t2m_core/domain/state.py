@@ -8,7 +8,7 @@ object name.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -54,3 +54,19 @@ class GeometricState:
     def object_names(self) -> tuple[str, ...]:
         """Present objects in observation-row order."""
         return tuple(self.objects)
+
+
+def pose_groups(states: Sequence[GeometricState], excluded: Collection[str] = ()) -> tuple[list[int], np.ndarray]:
+    """The states grouped by the exact poses of their objects other than ``excluded`` (a planner's
+    samples, whose moved objects differ and whose others stand where they stood):
+    ``(the first state of each group, (S,) int64 the group of each state)``."""
+    groups: dict[tuple, int] = {}
+    first: list[int] = []
+    group_of = np.empty(len(states), dtype=np.int64)
+    for index, state in enumerate(states):
+        key = tuple((name, pose.position.tobytes(), pose.quaternion.tobytes()) for name, pose in state.objects.items() if name not in excluded)
+        if key not in groups:
+            groups[key] = len(first)
+            first.append(index)
+        group_of[index] = groups[key]
+    return first, group_of

@@ -23,7 +23,7 @@ from t2m_core.domain.geometry import (
 )
 from t2m_core.domain.objects import ObjectKind, object_spec
 from t2m_core.domain.primitives.sweep_screen import comes_near
-from t2m_core.domain.state import GeometricState, ObjectPose
+from t2m_core.domain.state import GeometricState, ObjectPose, pose_groups
 from t2m_core.simulation.robot import FINGER_BODY_CENTER, FINGER_BODY_HALF, PAD_HALF
 
 FINGER_DEPTH = FINGER_BODY_CENTER[1] + FINGER_BODY_HALF[1]
@@ -71,17 +71,19 @@ def fingers_strike_of_states(
     prediction never depends on the others in the batch."""
     edges = polygon_edges(footprints)
     tips = np.asarray(tips, dtype=np.float64)
-    sampled = np.bincount(state_of, minlength=len(states)) > 0
-    parts: dict[ObjectKind, list[list[np.ndarray]]] = {kind: [[] for _ in states] for kind in FINGER_CLEARANCE}
-    tops: dict[ObjectKind, list[list[float]]] = {kind: [[] for _ in states] for kind in FINGER_CLEARANCE}
-    for index, state in enumerate(states):
-        if not sampled[index]:
-            continue  # no fingers in this state
-        for name, pose in state.objects.items():
+    first, group_of = pose_groups(states, spared)  # the states whose other objects stand alike share their parts
+    group_of = group_of[np.asarray(state_of, dtype=np.int64)]
+    sampled = np.bincount(group_of, minlength=len(first)) > 0
+    parts: dict[ObjectKind, list[list[np.ndarray]]] = {kind: [[] for _ in first] for kind in FINGER_CLEARANCE}
+    tops: dict[ObjectKind, list[list[float]]] = {kind: [[] for _ in first] for kind in FINGER_CLEARANCE}
+    for group, index in enumerate(first):
+        if not sampled[group]:
+            continue  # no fingers in these states
+        for name, pose in states[index].objects.items():
             if name not in spared and object_spec(name).kind in parts:
                 shape = geometry(name, pose)
-                parts[shape.spec.kind][index] += list(shape.footprints)
-                tops[shape.spec.kind][index] += [float(corners[:, 2].max()) for corners in shape.part_corners]
+                parts[shape.spec.kind][group] += list(shape.footprints)
+                tops[shape.spec.kind][group] += [float(corners[:, 2].max()) for corners in shape.part_corners]
     struck = np.zeros(len(footprints), dtype=bool)
     for kind, per_state in parts.items():
         most = max(len(of_state) for of_state in per_state)
@@ -90,8 +92,8 @@ def fingers_strike_of_states(
         # every state's parts, padded with polygons far beyond any clearance (never rising)
         padded = pad_polygons([pad_polygons(of_state + [_FAR] * (most - len(of_state))) for of_state in per_state])
         heights = np.array([of_state + [-np.inf] * (most - len(of_state)) for of_state in tops[kind]])  # (S, P) m
-        rising = heights[state_of] > tips[:, None]  # (B, P): the parts above each sample's fingertips
-        obstacles = np.where(rising[..., None, None], padded[state_of], _FAR[0])  # the others moved out of reach
+        rising = heights[group_of] > tips[:, None]  # (B, P): the parts above each sample's fingertips
+        obstacles = np.where(rising[..., None, None], padded[group_of], _FAR[0])  # the others moved out of reach
         struck |= comes_near(footprints, edges, obstacles, FINGER_CLEARANCE[kind])
     return struck
 

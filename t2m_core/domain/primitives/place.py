@@ -56,7 +56,7 @@ from t2m_core.domain.primitives.sweep_screen import (
     nearest_gaps,
     obstacle_footprints,
 )
-from t2m_core.domain.state import GeometricState
+from t2m_core.domain.state import GeometricState, pose_groups
 
 MAX_DROP_DISTANCE = 0.05
 """Before release the held object must be within this closest distance of the target, metres."""
@@ -168,13 +168,17 @@ class Place(Primitive):
             per_state(lambda s: s.objects[obj].position), per_state(lambda s: quat_yaw(s.objects[obj].quaternion)),
             release, release_yaw,
         )  # the held object's at the release
-        tops = pad_polygons([convex_hull_2d(np.concatenate(geometry(target, state.objects[target]).footprints)) for state in states])
-        obstacles = [obstacle_footprints(bystanders(state, arguments, geometry)) for state in states]  # (N, K_s, 2) each
+        # the target's top and the bystanders' footprints, once for each group of states where they stand alike
+        first, target_group = pose_groups(states, [name for name in states[0].objects if name != target])
+        tops = pad_polygons([convex_hull_2d(np.concatenate(geometry(target, states[i].objects[target]).footprints)) for i in first])
+        tops = tops[target_group]
+        first, bystander_group = pose_groups(states, arguments)
+        obstacles = [obstacle_footprints(bystanders(states[i], arguments, geometry)) for i in first]  # (N, K_g, 2) each
         if obstacles[0].shape[0] == 0:
             clearance = np.full(len(physical), CLEARANCE_RANGE)
         else:
             footprints = yawed_footprints(object_spec(obj), positions, yaws)  # (B, P, 4, 2)
-            obstacles = pad_polygons(obstacles)[state_of]  # (B, N, K, 2)
+            obstacles = pad_polygons(obstacles)[bystander_group[state_of]]  # (B, N, K, 2)
             clearance = nearest_gaps(footprints, polygon_edges(footprints), obstacles, TOOL_CLEARANCE + CLEARANCE_RANGE) - TOOL_CLEARANCE
         mass_centres = yawed_polygons(object_spec(obj).centre_of_mass()[None, None, :2], positions, yaws)[:, 0, 0]  # (B, 2)
         # the EE's height above the held object's lowest point, and the target's surface
