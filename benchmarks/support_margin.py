@@ -1,5 +1,7 @@
 """Where a placed object falls: Place's ``support_margin`` measured at the held object's centre of mass
-(what the screen reads) and at its origin (what it read before), against each transition's outcome.
+(what the screen reads) and at its origin (what it read before), and its ``balance_margin`` (the
+centre of mass inside the part of the object's resting hull that the target holds up), against each
+transition's outcome.
 
     python benchmarks/support_margin.py DATASET [--split validation] [--json OUT]
 
@@ -7,8 +9,9 @@ For each kind of call (``place(hook, table)``, ``place(box, rack)``, ...) and ea
 transitions in bins of the margin (metres; negative: beyond the target's edge) with their success
 and ``below_table`` rates. A margin that tells where the object falls leaves no success below 0.
 The hook's centre of mass lies 8 cm from its origin (docs/guide/world.md#frames-and-objects); a
-box's is its origin, so its two margins agree. ``DATASET`` is a directory written by ``t2m
-datagen`` (``DATASET/place/<split>``).
+box's is its origin, so its first two margins agree. A hook whose head overhangs the edge rolls
+about its handle although its centre of mass lies inside the top: only the balance margin sees it.
+``DATASET`` is a directory written by ``t2m datagen`` (``DATASET/place/<split>``).
 """
 
 from __future__ import annotations
@@ -29,19 +32,19 @@ from t2m_core.domain.observation import decode_observation
 from t2m_core.domain.primitives import get_primitive
 from t2m_core.errors import T2MError
 
-EDGES = (-np.inf, -0.02, 0.0, 0.02, 0.05, np.inf)
+EDGES = (-np.inf, -0.02, 0.0, 0.01, 0.02, 0.05, np.inf)
 """Bin edges of the margin, metres."""
 
 
-def support_margins(transitions: Transitions) -> np.ndarray:
-    """``(N,)`` Place's ``support_margin`` (metres) of each transition's decoded state and action."""
+def support_margins(transitions: Transitions, prediction: str = "support_margin") -> np.ndarray:
+    """``(N,)`` Place's ``prediction`` (a margin, metres) of each transition's decoded state and action."""
     place = get_primitive("place")
     physical = place.to_physical(np.asarray(transitions.action, dtype=np.float64))
     margins = np.empty(len(transitions))
     for row in range(len(transitions)):
         state = decode_observation(transitions.observation[row], transitions.object_names(row))
         screen = place.screen_of_states([state], transitions.argument_names(row), physical[row][None], np.zeros(1, dtype=np.int64))
-        margins[row] = screen["support_margin"][0]
+        margins[row] = screen[prediction][0]
     return margins
 
 
@@ -75,7 +78,8 @@ def main() -> None:
         sys.exit(f"error: {error}")
     outcomes = np.array([failure or "success" for failure in transitions.failure_names()])
     kinds = call_kinds("place", transitions)
-    margins = {"centre_of_mass": support_margins(transitions), "origin": origin_margins(transitions)}
+    margins = {"centre_of_mass": support_margins(transitions), "origin": origin_margins(transitions),
+               "balance": support_margins(transitions, "balance_margin")}
     report: dict = {"dataset": str(args.dataset), "split": args.split, "transitions": len(transitions), "by_call": {}}
     for kind in sorted(set(kinds.tolist())):
         mine = kinds == kind

@@ -27,7 +27,7 @@ from t2m_core.domain.state import GeometricState
 
 SCREEN_FEATURES: dict[str, tuple[str, ...]] = {
     "pick": ("in_the_way",),
-    "place": ("in_the_way", "clearance", "support_gap", "workspace_margin", "support_margin"),
+    "place": ("in_the_way", "clearance", "support_gap", "workspace_margin", "support_margin", "balance_margin"),
     "pull": ("clearance", "reach_margin"),
     "push": ("clearance", "reach_margin"),
 }
@@ -39,7 +39,7 @@ its flag and four margins (without ``support_margin``, task1's plans set boxes d
 table's edge: docs/guide/skills.md#geometric-q-ensemble)."""
 MARGIN_SCALES: dict[str, float] = {
     "clearance": 0.05, "reach_margin": 0.05, "under_depth": 0.1, "leg_clearance": 0.05, "support_gap": 0.02, "workspace_margin": 0.05,
-    "support_margin": 0.05,
+    "support_margin": 0.05, "balance_margin": 0.02,
 }
 """Predictions that are margins in metres, and the margin that enters a network as ±0.5
 (:func:`screen_inputs`): the hook sweeps' ``clearance`` from the bystanders beyond the screen's own
@@ -47,7 +47,8 @@ clearances and ``reach_margin`` inside the arm's reach (negative where ``in_the_
 ``unreachable``); Push's ``under_depth`` of the box under the rack and ``leg_clearance`` of the
 swept box from the rack's legs; Place's ``clearance`` of the set-down object from the bystanders,
 ``support_gap`` between its lowest point and the target's surface at the release,
-``workspace_margin`` of the release and ``support_margin`` of its centre of mass inside the target's top.
+``workspace_margin`` of the release, ``support_margin`` of its centre of mass inside the target's top
+and ``balance_margin`` of it inside the part of its resting hull that the top holds up.
 The others are flags."""
 REFUSED_MARGIN = -np.inf
 """The margin of a call the primitive refuses (every flag raised); a state of no known world reads

@@ -314,6 +314,52 @@ def inside_margins(points: np.ndarray, polygons: np.ndarray) -> np.ndarray:
     return np.min(np.where(length > 0, margins, np.inf), axis=-1)
 
 
+def clip_segments(segments: np.ndarray, polygons: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The parts of ``(..., S, 2, 2)`` segments (start, end; metres) inside ``(..., K, 2)``
+    counter-clockwise convex polygons (Cyrus-Beck; zero-length edges, a :func:`pad_polygons`
+    padding, are skipped): ``((..., S, 2, 2) clipped segments, (..., S) whether any part is inside)``;
+    a segment wholly outside keeps its ends and reads ``False``."""
+    segments, polygons = np.asarray(segments, dtype=np.float64), np.asarray(polygons, dtype=np.float64)
+    start, along = segments[..., 0, :], segments[..., 1, :] - segments[..., 0, :]  # (..., S, 2)
+    edge_start = polygons[..., None, :, :]  # (..., 1, K, 2)
+    edge = np.roll(polygons, -1, axis=-2)[..., None, :, :] - edge_start
+    inward = np.stack((-edge[..., 1], edge[..., 0]), axis=-1)  # (..., 1, K, 2), unnormalised
+    real = np.sum(edge * edge, axis=-1) > 0.0
+    # inside edge k where inward_k . (start + t along - edge_start_k) >= 0, i.e. offset + t rate >= 0
+    offset = np.sum(inward * (start[..., :, None, :] - edge_start), axis=-1)  # (..., S, K)
+    rate = np.sum(inward * along[..., :, None, :], axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        bound = -offset / rate
+    entering, leaving = real & (rate > 0.0), real & (rate < 0.0)
+    low = np.max(np.where(entering, bound, 0.0), axis=-1, initial=0.0)
+    high = np.min(np.where(leaving, bound, 1.0), axis=-1, initial=1.0)
+    parallel_outside = np.any(real & (rate == 0.0) & (offset < 0.0), axis=-1)
+    inside = (low <= high) & ~parallel_outside
+    ends = start[..., None, :] + np.stack((low, high), axis=-1)[..., None] * along[..., None, :]
+    return np.where(inside[..., None, None], ends, segments), inside
+
+
+def hull_margins(points: np.ndarray, valid: np.ndarray, queries: np.ndarray) -> np.ndarray:
+    """``(...)`` how far ``(..., 2)`` queries lie inside the convex hull of the ``valid`` ``(..., M)``
+    of ``(..., M, 2)`` points, metres, without building the hull: the nearest hull edge's line
+    (negative beyond it); a hull of collinear points or of one point has no inside, and reads minus
+    the query's distance from its line or point; no valid point reads ``-inf``. For a few points
+    (every ordered pair is tried as an edge)."""
+    points, valid = np.asarray(points, dtype=np.float64), np.asarray(valid, dtype=bool)
+    queries = np.asarray(queries, dtype=np.float64)
+    along = points[..., None, :, :] - points[..., :, None, :]  # (..., M, M, 2): from i to j
+    length = np.linalg.norm(along, axis=-1)
+    left = np.stack((-along[..., 1], along[..., 0]), axis=-1) / np.where(length > 1e-12, length, 1.0)[..., None]
+    # side of every point k of the line through i and j: (..., M, M, M)
+    sides = np.einsum("...ijd,...ijkd->...ijk", left, points[..., None, None, :, :] - points[..., :, None, None, :])
+    pair = valid[..., :, None] & valid[..., None, :] & (length > 1e-9)
+    edge = pair & np.all((sides >= -1e-9) | ~valid[..., None, None, :], axis=-1)
+    distance = np.sum(left * (queries[..., None, None, :] - points[..., :, None, :]), axis=-1)  # (..., M, M)
+    margins = np.min(np.where(edge, distance, np.inf), axis=(-2, -1))
+    to_points = np.min(np.where(valid, np.linalg.norm(queries[..., None, :] - points, axis=-1), np.inf), axis=-1)
+    return np.where(np.isfinite(margins), margins, -to_points)
+
+
 def hull_distances(points_a: np.ndarray, edges_a: np.ndarray, points_b: np.ndarray, edges_b: np.ndarray) -> np.ndarray:
     """Closest distances between the convex hulls of two point sets, broadcast over the leading axes,
     metres; 0 where they overlap: :func:`polygon_distance` for batches.

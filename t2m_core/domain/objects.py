@@ -166,6 +166,24 @@ class ObjectSpec:
             centres, shares = [part.center for part in parts], (1.0 / len(parts),) * len(parts)
         return np.asarray(shares) @ np.asarray(centres, dtype=np.float64)
 
+    def resting_segments(self) -> np.ndarray:
+        """``(S, 2, 2)`` xy segments (start, end) in the object frame, metres, whose convex hull is
+        where the object touches a flat support it stands on upright: a box's bottom edges; the
+        hook's cylinder axes (a cylinder lying down touches along its axis; the joint sphere's
+        point is on both). Its centre of mass must lie within the part of that hull that the
+        support holds up, or it tips (Place's ``balance_margin``)."""
+        if self.kind is ObjectKind.HOOK and self.hook is not None:
+            segments = []
+            for part in self.hook.cylinders():
+                if part.length > 0.0:
+                    half = np.array((part.length / 2, 0.0) if part.axis == "x" else (0.0, part.length / 2))
+                    segments.append((np.asarray(part.center[:2]) - half, np.asarray(part.center[:2]) + half))
+            return np.asarray(segments, dtype=np.float64)
+        corners = [np.asarray(p.center[:2]) + 0.5 * np.array(signs) * np.asarray(p.size[:2])
+                   for p in self.convex_parts() for signs in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+        corners = np.asarray(corners, dtype=np.float64).reshape(-1, 4, 2)
+        return np.stack((corners, np.roll(corners, -1, axis=1)), axis=2).reshape(-1, 2, 2)
+
     def convex_parts(self) -> tuple[BoxPart, ...]:
         """The convex boxes that the geometric tests use, object frame: the box
         itself, the rack's full bounding box (not its 7 parts), the hook's two footprint boxes, the

@@ -201,6 +201,53 @@ def test_inside_margins_measure_to_the_nearest_edge_and_go_negative_beyond() -> 
     assert g.inside_margins(np.array([0.5, 0.2]), moved) == pytest.approx(-0.1)
 
 
+def test_clip_segments_keep_the_part_inside_a_convex_polygon() -> None:
+    square = g.pad_polygons([np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])])[0]
+    segments = np.array([
+        [[-1.0, 0.5], [2.0, 0.5]],  # across: cut at both sides
+        [[0.2, 0.2], [0.6, 0.7]],  # inside: unchanged
+        [[2.0, 2.0], [3.0, 3.0]],  # outside
+        [[0.5, 1.5], [0.5, 0.25]],  # entering from above, ending inside
+        [[-0.5, 0.5], [0.5, -0.5]],  # touching the corner (0, 0) only
+    ])
+    clipped, inside = g.clip_segments(segments, square)
+    assert inside.tolist() == [True, True, False, True, True]
+    np.testing.assert_allclose(clipped[[0, 1, 3, 4]], [[[0.0, 0.5], [1.0, 0.5]], [[0.2, 0.2], [0.6, 0.7]],
+                                                      [[0.5, 1.0], [0.5, 0.25]], [[0.0, 0.0], [0.0, 0.0]]], atol=1e-12)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.floats(-1, 1), st.floats(-1, 1)), min_size=3, max_size=8), st.tuples(st.floats(-1.2, 1.2), st.floats(-1.2, 1.2)))
+def test_hull_margins_equal_the_margins_inside_the_built_hull(points: list, query: tuple) -> None:
+    points, query = np.array(points), np.array(query)
+    hull = g.convex_hull_2d(points)
+    (ax, ay), (bx, by) = (hull[1] - hull[0], hull[2] - hull[0]) if len(hull) >= 3 else ((0, 0), (0, 0))
+    if abs(ax * by - ay * bx) < 1e-6:
+        return  # degenerate: measured below
+    assert g.hull_margins(points, np.ones(len(points), dtype=bool), query) == pytest.approx(g.inside_margins(query, hull), abs=1e-9)
+
+
+def test_hull_margins_of_a_line_a_point_or_nothing_have_no_inside() -> None:
+    points = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [5.0, 5.0]])
+    query = np.array([0.25, 0.1])
+    assert g.hull_margins(points, np.array([True, True, True, False]), query) == pytest.approx(0.1)
+    assert g.hull_margins(points, np.array([True, True, False, False]), query) == pytest.approx(-0.1)  # the x axis
+    assert g.hull_margins(points, np.array([False, False, True, False]), query) == pytest.approx(-math.hypot(0.25, 0.9))
+    assert g.hull_margins(points, np.zeros(4, dtype=bool), query) == -np.inf
+
+
+def test_the_hook_rests_on_its_axes_with_its_weight_a_handle_radius_inside() -> None:
+    # handle: x from -0.20 to 0.18 at y = -0.09; head: y from -0.09 to 0.11 at x = 0.18 (cylinders' axes)
+    hook = object_spec("hook")
+    np.testing.assert_allclose(hook.resting_segments(), [[[-0.20, -0.09], [0.18, -0.09]], [[0.18, -0.09], [0.18, 0.11]]], atol=1e-12)
+    # its centre of mass lies 3.3 cm from the handle's axis, the nearest side of the triangle they span
+    margin = g.hull_margins(hook.resting_segments().reshape(-1, 2), np.ones(4, dtype=bool), hook.centre_of_mass()[:2])
+    assert margin == pytest.approx(-0.0567 + 0.09, abs=2e-4)
+    box = object_spec("red_box")  # a box rests on its bottom face: its four edges
+    np.testing.assert_allclose(np.sort(box.resting_segments()[:, 0], axis=0), np.sort(g.convex_hull_2d(
+        np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * np.array(box.size[:2]) / 2), axis=0), atol=1e-12)
+
+
 def test_grow_polygon_moves_vertices_outward_per_axis() -> None:
     grown = g.grow_polygon(_square(1, 1, half=0.1), 0.05)
     np.testing.assert_allclose(grown.min(axis=0), [0.85, 0.85])

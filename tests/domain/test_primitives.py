@@ -493,6 +493,17 @@ def test_place_margins_measure_the_drop_to_the_support_and_the_workspace(holding
     judged = PLACE.screen_of_states([hook_held], ["hook", "table"], at_edge[None], np.zeros(1, dtype=int))
     np.testing.assert_allclose(judged["support_margin"], [0.04 - 0.0567], atol=2e-4)
     np.testing.assert_allclose(judged["support_margin"], [0.04 + centre[1]], atol=1e-12)
+    # Turned a quarter (handle along +y, head across it at the far end), released with its origin
+    # 17 cm inside the edge y = 0.45: the handle's axis ends 1 cm beyond it, the head lies wholly
+    # beyond, and the hook rolls about its handle although its centre of mass lies 11 cm inside the
+    # edge. Released 2 cm further in, the head rests on the table too.
+    hook_turned = GeometricState({**hook_held.objects, "hook": ObjectPose([0.45, 0.1, 0.38], yaw_to_quat(math.pi / 2))},
+                                 holding.ee_position, held="hook")
+    judged = PLACE.screen_of_states([hook_turned], ["hook", "table"], np.array([_table_action(0.5, 0.28), _table_action(0.5, 0.26)]),
+                                    np.zeros(2, dtype=int))
+    np.testing.assert_allclose(judged["support_margin"], [0.45 - 0.28 - centre[0], 0.45 - 0.26 - centre[0]], atol=1e-12)
+    np.testing.assert_allclose(judged["balance_margin"], [-(0.09 + centre[1]), 0.09 + centre[1]], atol=1e-12)
+    assert judged["balance_margin"][1] == pytest.approx(0.0333, abs=2e-4)
     near = PLACE.to_physical(_table_action(0.35, 0.35))  # 5 cm short of the near edge: the precheck refuses it
     table = PLACE.screen_of_states([holding], ["red_box", "table"], near[None], np.zeros(1, dtype=int))
     assert table["workspace_margin"][0] == pytest.approx(-0.05) and PLACE.precheck(holding, ["red_box", "table"], _table_action(0.35, 0.35)) == "not_in_workspace"

@@ -16,7 +16,9 @@ from t2m_core.domain.constants import (
     workspace_margin,
 )
 from t2m_core.domain.geometry import (
+    clip_segments,
     convex_hull_2d,
+    hull_margins,
     inside_margins,
     is_above,
     is_upright,
@@ -128,7 +130,9 @@ class Place(Primitive):
         physical = np.atleast_2d(np.asarray(physical, dtype=np.float64))
         return self.screen_of_states([state], arguments, physical, np.zeros(len(physical), dtype=np.int64))["in_the_way"]
 
-    screen_predictions: tuple[str, ...] = ("in_the_way", "clearance", "support_gap", "workspace_margin", "support_margin")
+    screen_predictions: tuple[str, ...] = (
+        "in_the_way", "clearance", "support_gap", "workspace_margin", "support_margin", "balance_margin",
+    )
     """The predictions :meth:`screen_of_states` makes."""
 
     def screen_of_states(
@@ -148,7 +152,11 @@ class Place(Primitive):
         outside, the precheck fails); and ``"support_margin"``, how far inside the target's top the
         held object's centre of mass lies at the release (:func:`~t2m_core.domain.geometry.inside_margins`;
         beyond the table's edge the object falls, ``below_table``; the hook's lies 8 cm from its
-        origin, :meth:`~t2m_core.domain.objects.ObjectSpec.centre_of_mass`)."""
+        origin, :meth:`~t2m_core.domain.objects.ObjectSpec.centre_of_mass`); and ``"balance_margin"``,
+        how far inside the part of its resting hull that the target's top holds up the centre of mass
+        lies (:meth:`~t2m_core.domain.objects.ObjectSpec.resting_segments` clipped to the top,
+        :func:`~t2m_core.domain.geometry.hull_margins`; negative: it tips over the edge, as a hook
+        whose head overhangs rolls about its handle; ``-inf`` with nothing on the top)."""
         obj, target = self.check_arguments(states[0], arguments)
         physical, state_of = np.asarray(physical, dtype=np.float64), np.asarray(state_of, dtype=np.int64)
         geometry = object_geometry_memo()
@@ -181,6 +189,8 @@ class Place(Primitive):
             obstacles = pad_polygons(obstacles)[bystander_group[state_of]]  # (B, N, K, 2)
             clearance = nearest_gaps(footprints, polygon_edges(footprints), obstacles, TOOL_CLEARANCE + CLEARANCE_RANGE) - TOOL_CLEARANCE
         mass_centres = yawed_polygons(object_spec(obj).centre_of_mass()[None, None, :2], positions, yaws)[:, 0, 0]  # (B, 2)
+        resting, resting_held = clip_segments(yawed_polygons(object_spec(obj).resting_segments(), positions, yaws), tops[state_of])
+        balance = hull_margins(resting.reshape(len(physical), -1, 2), np.repeat(resting_held, 2, axis=-1), mass_centres)
         # the EE's height above the held object's lowest point, and the target's surface
         lowest = np.array([state.ee_position[2] - shape.aabb[0][2] for state, shape in zip(states, held_geometry, strict=True)])
         surface = np.array([state.objects[target].position[2] for state in states])
@@ -190,6 +200,7 @@ class Place(Primitive):
             "support_gap": release[:, 2] - lowest[state_of] - surface[state_of],
             "workspace_margin": workspace_margin(release[:, 0], release[:, 1]),
             "support_margin": inside_margins(mass_centres, tops[state_of]),
+            "balance_margin": balance,
         }
 
     def precheck(self, state: GeometricState, arguments: Sequence[str], action: np.ndarray) -> str | None:
