@@ -347,16 +347,19 @@ def hull_margins(points: np.ndarray, valid: np.ndarray, queries: np.ndarray) -> 
     (every ordered pair is tried as an edge)."""
     points, valid = np.asarray(points, dtype=np.float64), np.asarray(valid, dtype=bool)
     queries = np.asarray(queries, dtype=np.float64)
-    along = points[..., None, :, :] - points[..., :, None, :]  # (..., M, M, 2): from i to j
-    length = np.linalg.norm(along, axis=-1)
-    left = np.stack((-along[..., 1], along[..., 0]), axis=-1) / np.where(length > 1e-12, length, 1.0)[..., None]
+    x, y = np.ascontiguousarray(points[..., 0]), np.ascontiguousarray(points[..., 1])  # (..., M)
+    dx, dy = x[..., None, :] - x[..., :, None], y[..., None, :] - y[..., :, None]  # (..., M, M): from i to j
+    length = np.hypot(dx, dy)
+    scale = 1.0 / np.where(length > 1e-12, length, 1.0)
+    left_x, left_y = -dy * scale, dx * scale  # unit normal to the left of i -> j
+    offset = left_x * x[..., :, None] + left_y * y[..., :, None]  # the line through i and j: left . p = offset
     # side of every point k of the line through i and j: (..., M, M, M)
-    sides = np.einsum("...ijd,...ijkd->...ijk", left, points[..., None, None, :, :] - points[..., :, None, None, :])
+    sides = left_x[..., None] * x[..., None, None, :] + left_y[..., None] * y[..., None, None, :] - offset[..., None]
     pair = valid[..., :, None] & valid[..., None, :] & (length > 1e-9)
     edge = pair & np.all((sides >= -1e-9) | ~valid[..., None, None, :], axis=-1)
-    distance = np.sum(left * (queries[..., None, None, :] - points[..., :, None, :]), axis=-1)  # (..., M, M)
+    distance = left_x * queries[..., None, None, 0] + left_y * queries[..., None, None, 1] - offset  # (..., M, M)
     margins = np.min(np.where(edge, distance, np.inf), axis=(-2, -1))
-    to_points = np.min(np.where(valid, np.linalg.norm(queries[..., None, :] - points, axis=-1), np.inf), axis=-1)
+    to_points = np.min(np.where(valid, np.hypot(queries[..., None, 0] - x, queries[..., None, 1] - y), np.inf), axis=-1)
     return np.where(np.isfinite(margins), margins, -to_points)
 
 

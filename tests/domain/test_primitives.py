@@ -471,6 +471,21 @@ def test_place_in_the_way_sees_the_held_object_set_down_against_another(holding:
         STOP.in_the_way(holding, [], release[None])
 
 
+def test_balance_margins_take_the_whole_objects_own_margin_only_where_nothing_is_clipped() -> None:
+    from t2m_core.domain.geometry import clip_segments, hull_margins, pad_polygons, yawed_polygons
+    from t2m_core.domain.primitives.place import balance_margins
+
+    rng = np.random.default_rng(3)
+    table = pad_polygons([np.array([[-0.3, -0.45], [0.9, -0.45], [0.9, 0.45], [-0.3, 0.45]])])[[0] * 400]
+    for name in ("hook", "red_box"):
+        positions, yaws = rng.uniform([0.3, -0.6, 0.0], [0.8, 0.6, 0.0], (400, 3)), rng.uniform(-np.pi, np.pi, 400)
+        centres = yawed_polygons(OBJECTS[name].centre_of_mass()[None, None, :2], positions, yaws)[:, 0, 0]
+        clipped, held_up = clip_segments(yawed_polygons(OBJECTS[name].resting_segments(), positions, yaws), table)
+        direct = hull_margins(clipped.reshape(400, -1, 2), np.repeat(held_up, 2, axis=-1), centres)
+        np.testing.assert_allclose(balance_margins(name, positions, yaws, centres, table), direct, atol=1e-12)
+        assert (direct < 0).any() and (direct > 0).any()  # both sides of the edge y = ±0.45 drawn
+
+
 def test_place_margins_measure_the_drop_to_the_support_and_the_workspace(holding: GeometricState) -> None:
     # The held box's bottom hangs 0.089 m below the EE (0.40 − 0.37 + 0.118 / 2): released with the
     # EE that high above the rack's plate it touches it, 9 mm lower it is pressed 9 mm into it.

@@ -100,6 +100,25 @@ def carried_poses(
     return release + rotate(yaw_to_quat(release_yaw), in_hand), release_yaw + (held_yaw - ee_yaw)
 
 
+def balance_margins(obj: str, positions: np.ndarray, yaws: np.ndarray, mass_centres: np.ndarray, tops: np.ndarray) -> np.ndarray:
+    """``(B,)`` how far inside the part of its resting hull that each ``(B, K, 2)`` top holds up
+    ``obj``'s ``(B, 2)`` centre of mass lies, set down upright at ``(B, 3)`` positions (metres) and
+    ``(B,)`` yaws (radians): :func:`~t2m_core.domain.geometry.hull_margins` of its
+    :meth:`~t2m_core.domain.objects.ObjectSpec.resting_segments` clipped to the top. Where the top
+    holds up all of them (most samples), the margin is the object's own, computed once."""
+    spec = object_spec(obj)
+    local = spec.resting_segments()
+    segments = yawed_polygons(local, positions, yaws)  # (B, S, 2, 2)
+    clipped, held_up = clip_segments(segments, tops)
+    whole = np.all(np.abs(clipped - segments) < 1e-12, axis=(-3, -2, -1)) & np.all(held_up, axis=-1)
+    own = hull_margins(local.reshape(-1, 2), np.ones(2 * len(local), dtype=bool), spec.centre_of_mass()[:2])
+    margins = np.full(len(positions), float(own))
+    partial = ~whole
+    if partial.any():
+        margins[partial] = hull_margins(clipped[partial].reshape(int(partial.sum()), -1, 2), np.repeat(held_up[partial], 2, axis=-1), mass_centres[partial])
+    return margins
+
+
 class Place(Primitive):
     """Release the held ``obj`` above ``target``.
 
@@ -189,8 +208,7 @@ class Place(Primitive):
             obstacles = pad_polygons(obstacles)[bystander_group[state_of]]  # (B, N, K, 2)
             clearance = nearest_gaps(footprints, polygon_edges(footprints), obstacles, TOOL_CLEARANCE + CLEARANCE_RANGE) - TOOL_CLEARANCE
         mass_centres = yawed_polygons(object_spec(obj).centre_of_mass()[None, None, :2], positions, yaws)[:, 0, 0]  # (B, 2)
-        resting, resting_held = clip_segments(yawed_polygons(object_spec(obj).resting_segments(), positions, yaws), tops[state_of])
-        balance = hull_margins(resting.reshape(len(physical), -1, 2), np.repeat(resting_held, 2, axis=-1), mass_centres)
+        balance = balance_margins(obj, positions, yaws, mass_centres, tops[state_of])
         # the EE's height above the held object's lowest point, and the target's surface
         lowest = np.array([state.ee_position[2] - shape.aabb[0][2] for state, shape in zip(states, held_geometry, strict=True)])
         surface = np.array([state.objects[target].position[2] for state in states])
