@@ -170,8 +170,9 @@ class ObjectSpec:
         """``(S, 2, 2)`` xy segments (start, end) in the object frame, metres, whose convex hull is
         where the object touches a flat support it stands on upright: a box's bottom edges; the
         hook's cylinder axes (a cylinder lying down touches along its axis; the joint sphere's
-        point is on both). Its centre of mass must lie within the part of that hull that the
-        support holds up, or it tips (Place's ``balance_margin``)."""
+        point is on both; MuJoCo's capsules of the same length touch along all but their 2 cm
+        caps). Its centre of mass must lie within the part of that hull that the support holds
+        up, or it tips (Place's ``balance_margin``)."""
         if self.kind is ObjectKind.HOOK and self.hook is not None:
             segments = []
             for part in self.hook.cylinders():
