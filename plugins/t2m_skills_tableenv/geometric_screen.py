@@ -35,8 +35,9 @@ SCREEN_FEATURES: dict[str, tuple[str, ...]] = {
 geometric``; ``--screen`` picks others): for Pick, the flag ``in_the_way``; for the hook sweeps,
 the margins behind their flags ``in_the_way`` and ``unreachable`` (on the data scenes' validation
 they took Pull's precision / recall from 96.1 / 94.2 % with the flags to 96.9 / 96.8 %); for Place,
-its flag and four margins (without ``support_margin``, task1's plans set boxes down beyond the
-table's edge: docs/guide/skills.md#geometric-q-ensemble)."""
+its flag and five margins (without ``support_margin``, task1's plans set boxes down beyond the
+table's edge; without ``balance_margin``, task6's set the hook down with its head beyond it, and it
+rolled off about its handle: docs/guide/skills.md#pull-push-and-place)."""
 MARGIN_SCALES: dict[str, float] = {
     "clearance": 0.05, "reach_margin": 0.05, "under_depth": 0.1, "leg_clearance": 0.05, "support_gap": 0.02, "workspace_margin": 0.05,
     "support_margin": 0.05, "balance_margin": 0.02,
