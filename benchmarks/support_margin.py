@@ -36,15 +36,17 @@ EDGES = (-np.inf, -0.02, 0.0, 0.01, 0.02, 0.05, np.inf)
 """Bin edges of the margin, metres."""
 
 
-def support_margins(transitions: Transitions, prediction: str = "support_margin") -> np.ndarray:
-    """``(N,)`` Place's ``prediction`` (a margin, metres) of each transition's decoded state and action."""
+def support_margins(transitions: Transitions, predictions: tuple[str, ...] = ("support_margin",)) -> dict[str, np.ndarray]:
+    """``{prediction: (N,)}`` Place's margins (metres) of each transition's decoded state and action,
+    every prediction from one screen call per transition."""
     place = get_primitive("place")
     physical = place.to_physical(np.asarray(transitions.action, dtype=np.float64))
-    margins = np.empty(len(transitions))
+    margins = {name: np.empty(len(transitions)) for name in predictions}
     for row in range(len(transitions)):
         state = decode_observation(transitions.observation[row], transitions.object_names(row))
         screen = place.screen_of_states([state], transitions.argument_names(row), physical[row][None], np.zeros(1, dtype=np.int64))
-        margins[row] = screen[prediction][0]
+        for name in predictions:
+            margins[name][row] = screen[name][0]
     return margins
 
 
@@ -52,7 +54,7 @@ def origin_margins(transitions: Transitions) -> np.ndarray:
     """``(N,)`` the same margin measured at the held object's origin (the screen before it read the
     centre of mass): every object's centre of mass put at its origin."""
     with mock.patch.object(ObjectSpec, "centre_of_mass", lambda self: np.zeros(3)):
-        return support_margins(transitions)
+        return support_margins(transitions)["support_margin"]
 
 
 def binned(margins: np.ndarray, success: np.ndarray, outcomes: np.ndarray) -> list[dict]:
@@ -78,8 +80,8 @@ def main() -> None:
         sys.exit(f"error: {error}")
     outcomes = np.array([failure or "success" for failure in transitions.failure_names()])
     kinds = call_kinds("place", transitions)
-    margins = {"centre_of_mass": support_margins(transitions), "origin": origin_margins(transitions),
-               "balance": support_margins(transitions, "balance_margin")}
+    measured = support_margins(transitions, ("support_margin", "balance_margin"))
+    margins = {"centre_of_mass": measured["support_margin"], "origin": origin_margins(transitions), "balance": measured["balance_margin"]}
     report: dict = {"dataset": str(args.dataset), "split": args.split, "transitions": len(transitions), "by_call": {}}
     for kind in sorted(set(kinds.tolist())):
         mine = kinds == kind
