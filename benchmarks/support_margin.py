@@ -36,7 +36,7 @@ EDGES = (-np.inf, -0.02, 0.0, 0.01, 0.02, 0.05, np.inf)
 """Bin edges of the margin, metres."""
 
 
-def support_margins(transitions: Transitions, predictions: tuple[str, ...] = ("support_margin",)) -> dict[str, np.ndarray]:
+def place_margins(transitions: Transitions, predictions: tuple[str, ...] = ("support_margin",)) -> dict[str, np.ndarray]:
     """``{prediction: (N,)}`` Place's margins (metres) of each transition's decoded state and action,
     every prediction from one screen call per transition."""
     place = get_primitive("place")
@@ -54,7 +54,7 @@ def origin_margins(transitions: Transitions) -> np.ndarray:
     """``(N,)`` the same margin measured at the held object's origin (the screen before it read the
     centre of mass): every object's centre of mass put at its origin."""
     with mock.patch.object(ObjectSpec, "centre_of_mass", lambda self: np.zeros(3)):
-        return support_margins(transitions)["support_margin"]
+        return place_margins(transitions)["support_margin"]
 
 
 def binned(margins: np.ndarray, success: np.ndarray, outcomes: np.ndarray) -> list[dict]:
@@ -80,7 +80,7 @@ def main() -> None:
         sys.exit(f"error: {error}")
     outcomes = np.array([failure or "success" for failure in transitions.failure_names()])
     kinds = call_kinds("place", transitions)
-    measured = support_margins(transitions, ("support_margin", "balance_margin"))
+    measured = place_margins(transitions, ("support_margin", "balance_margin"))
     margins = {"centre_of_mass": measured["support_margin"], "origin": origin_margins(transitions), "balance": measured["balance_margin"]}
     report: dict = {"dataset": str(args.dataset), "split": args.split, "transitions": len(transitions), "by_call": {}}
     for kind in sorted(set(kinds.tolist())):
