@@ -17,6 +17,7 @@ about its handle although its centre of mass lies inside the top: only the balan
 from __future__ import annotations
 
 import argparse
+import itertools
 import sys
 from pathlib import Path
 from unittest import mock
@@ -60,7 +61,7 @@ def origin_margins(transitions: Transitions) -> np.ndarray:
 def binned(margins: np.ndarray, success: np.ndarray, outcomes: np.ndarray) -> list[dict]:
     """Per bin of :data:`EDGES`: its bounds, transitions, success and ``below_table`` rates."""
     rows = []
-    for low, high in zip(EDGES[:-1], EDGES[1:], strict=True):
+    for low, high in itertools.pairwise(EDGES):
         inside = (margins >= low) & (margins < high)
         if inside.any():
             rows.append({"low_m": float(low), "high_m": float(high), "transitions": int(inside.sum()),
