@@ -590,3 +590,18 @@ def test_finger_footprints_and_the_opening_on_a_held_box(holding: GeometricState
     np.testing.assert_allclose(turned[0].min(axis=0), [0.5 - 0.0664, 0.0895], atol=1e-9)
     # Closed on the 50 mm red box centred under the EE, the pads stand 25 mm either side.
     assert held_opening(holding, "red_box") == pytest.approx(0.025)
+
+
+def test_place_predicts_too_high_where_the_held_object_would_drop_more_than_5_cm(holding: GeometricState) -> None:
+    # The hook (4 cm thick) held flat with its origin 2 cm below the EE: its lowest point hangs 4 cm
+    # below the EE, so an EE released 6, 8.5 and 10 cm above the table leaves it 2, 4.5 and 6 cm up;
+    # the descent's check fails a drop of more than 5 cm (too_high). The held box hangs 8.9 cm
+    # below the EE: no release height of the action's range (z ≤ 0.1 m) drops it too far.
+    hook_held = GeometricState({**holding.objects, "hook": ObjectPose([0.45, 0.1, 0.38])}, holding.ee_position, held="hook")
+    del hook_held.objects["red_box"]
+    heights = np.array([[*_table_action(0.5, 0.0)[:2], z, 0.0] for z in (0.06, 0.085, 0.1)])
+    judged = PLACE.screen_of_states([hook_held], ["hook", "table"], heights, np.zeros(3, dtype=int))
+    np.testing.assert_allclose(judged["support_gap"], [0.02, 0.045, 0.06], atol=1e-9)
+    assert judged["too_high"].tolist() == [False, False, True]
+    box = PLACE.screen_of_states([holding], ["red_box", "rack"], heights, np.zeros(3, dtype=int))
+    assert not box["too_high"].any() and box["support_gap"].max() == pytest.approx(0.011)

@@ -150,7 +150,7 @@ class Place(Primitive):
         return self.screen_of_states([state], arguments, physical, np.zeros(len(physical), dtype=np.int64))["in_the_way"]
 
     screen_predictions: tuple[str, ...] = (
-        "in_the_way", "clearance", "support_gap", "workspace_margin", "support_margin", "balance_margin",
+        "in_the_way", "too_high", "clearance", "support_gap", "workspace_margin", "support_margin", "balance_margin",
     )
     """The predictions :meth:`screen_of_states` makes."""
 
@@ -160,7 +160,9 @@ class Place(Primitive):
         """The predictions (:attr:`screen_predictions`) for ``(B, 4)`` physical actions, action b taken
         in ``states[state_of[b]]``, judged as one batch (a planner's samples, each in its own
         predicted state; the states hold the same objects, and an object's geometry is computed
-        once per distinct pose), each ``(B,)``: ``"in_the_way"`` (:meth:`in_the_way`), and four
+        once per distinct pose), each ``(B,)``: ``"in_the_way"`` (:meth:`in_the_way`), ``"too_high"``
+        (the held object's lowest point more than :data:`MAX_DROP_DISTANCE` above the target's
+        surface at the release: the descent's check fails it), and five
         margins in metres: ``"clearance"``, how far the held object's footprint at the release
         clears the bystanders beyond :data:`~t2m_core.domain.primitives.sweep_screen.TOOL_CLEARANCE`
         (up to :data:`~t2m_core.domain.primitives.sweep_screen.CLEARANCE_RANGE`; the fingers' strike
@@ -212,10 +214,12 @@ class Place(Primitive):
         # the EE's height above the held object's lowest point, and the target's surface
         lowest = np.array([state.ee_position[2] - shape.aabb[0][2] for state, shape in zip(states, held_geometry, strict=True)])
         surface = np.array([state.objects[target].position[2] for state in states])
+        support_gap = release[:, 2] - lowest[state_of] - surface[state_of]
         return {
             "in_the_way": struck | (clearance < 0.0),
+            "too_high": support_gap > MAX_DROP_DISTANCE,
             "clearance": clearance,
-            "support_gap": release[:, 2] - lowest[state_of] - surface[state_of],
+            "support_gap": support_gap,
             "workspace_margin": workspace_margin(release[:, 0], release[:, 1]),
             "support_margin": inside_margins(mass_centres, tops[state_of]),
             "balance_margin": balance,
