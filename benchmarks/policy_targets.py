@@ -39,15 +39,16 @@ def measure(
     policies: list[Path],
 ) -> dict:
     """The figures described in the module docstring, as a dictionary."""
-    from t2m_skills_tableenv.checkpoints import load_q, load_weights
+    from t2m_skills_tableenv.checkpoints import architecture_of, load_q, load_weights
     from t2m_skills_tableenv.dataset import SkillTensors
+    from t2m_skills_tableenv.geometric_policy import build_policy
     from t2m_skills_tableenv.networks import GaussianPolicy
     from t2m_skills_tableenv.options import SHIPPED_CHECKPOINTS
     from t2m_skills_tableenv.training import WEIGHT_FILES, searched_actions
 
     directory = (checkpoints or SHIPPED_CHECKPOINTS) / skill
     q_ensemble = load_q(directory).eval()
-    policy = load_weights(directory / WEIGHT_FILES["policy"], GaussianPolicy()).eval()
+    policy = load_weights(directory / WEIGHT_FILES["policy"], build_policy(architecture_of(directory, "policy"))).eval()
     stored = SkillTensors.load(data / skill / "train").rows
     rows = torch.unique(stored.reshape(stored.shape[0], -1), dim=0).reshape(-1, *stored.shape[1:])
     states = rows.reshape(rows.shape[0], -1)

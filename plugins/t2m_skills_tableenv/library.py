@@ -18,6 +18,7 @@ from t2m_core.data.scenes import DATA_SKILLS
 from t2m_core.ood import members_variance
 from t2m_core.protocols import Batch
 from t2m_skills_tableenv.checkpoints import CheckpointError, load_dynamics, load_q, load_weights, read_config
+from t2m_skills_tableenv.geometric_policy import build_policy
 from t2m_skills_tableenv.networks import GaussianPolicy, QEnsemble, RelationalQEnsemble
 from t2m_skills_tableenv.options import TableEnvSkillsOptions
 from t2m_skills_tableenv.training import WEIGHT_FILES
@@ -81,7 +82,7 @@ class TableEnvSkill:
         return cls(
             name,
             load_q(directory),
-            load_weights(directory / WEIGHT_FILES["policy"], GaussianPolicy()),
+            load_weights(directory / WEIGHT_FILES["policy"], _policy_network(directory, config)),
             load_dynamics(directory),
             config,
         )
@@ -123,6 +124,14 @@ class TableEnvSkill:
         if "threshold" not in config.get("ood", {}):
             raise CheckpointError(f"{directory / 'config.json'} has no OOD threshold", f"calibrate it: t2m calibrate --skill {self.name} --data DATA --out {directory.parent}")
         return TableEnvSkill(self.name, self.q_ensemble, self.policy_network, self.dynamics, self.config, load_q(directory), config, directory)
+
+
+def _policy_network(directory: Path, config: dict[str, Any]) -> GaussianPolicy:
+    """A fresh policy of the architecture ``config`` records (the published one when it names none)."""
+    try:
+        return build_policy(config["models"]["policy"].get("architecture", {}))
+    except ValueError as error:
+        raise CheckpointError(f"{directory / 'config.json'}: {error}", "update t2m, or retrain the policy") from None
 
 
 def _tensor(values: Batch) -> torch.Tensor:

@@ -256,9 +256,13 @@ class GaussianPolicy(nn.Module):
 
     def distribution(self, states: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """``(mean, log_std)``, each ``(N, 4)``."""
-        mean, raw = self.net(states).chunk(2, dim=-1)
-        log_std = LOG_STD_MIN + 0.5 * (LOG_STD_MAX - LOG_STD_MIN) * (torch.tanh(raw) + 1.0)
-        return mean, log_std
+        return self._squashed(self.net(states))
+
+    @staticmethod
+    def _squashed(outputs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """``(mean, log_std)`` of the network's ``(N, 8)`` outputs, log σ squashed to [−5, 2]."""
+        mean, raw = outputs.chunk(2, dim=-1)
+        return mean, LOG_STD_MIN + 0.5 * (LOG_STD_MAX - LOG_STD_MIN) * (torch.tanh(raw) + 1.0)
 
     def forward(self, states: torch.Tensor) -> torch.Tensor:
         """Deterministic action ``(N, 4)`` = tanh(μ) in [−1, 1]."""

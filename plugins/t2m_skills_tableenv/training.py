@@ -28,6 +28,7 @@ from torch import nn
 
 from t2m_skills_tableenv.checkpoints import load_q, load_training_state, save_training_state, save_weights, update_config
 from t2m_skills_tableenv.dataset import SkillTensors
+from t2m_skills_tableenv.geometric_policy import build_policy, load_policy_weights, policy_architecture
 from t2m_skills_tableenv.networks import (
     ACTION_DIM, Dynamics, GaussianPolicy, QEnsemble, RelationalQEnsemble, build_dynamics, build_q, dynamics_architecture, q_architecture,
 )
@@ -85,6 +86,11 @@ class StageSettings(BaseModel):
         description="dynamics only: the published residual MLP, the relational network that reads the other "
         "objects as a set (docs/guide/skills.md#relational-dynamics), or an MLP that corrects the primitive's "
         "geometric prediction (docs/guide/skills.md#geometric-prior)",
+    )
+    policy_network: Literal["mlp", "geometric"] = Field(
+        "mlp",
+        description="policy only: the published MLP, or the MLP that also reads which gripper yaws the primitive's "
+        "geometric screen rules out (docs/guide/skills.md#geometric-policy)",
     )
     policy_targets: int = Field(
         0, ge=0, description="policy only: for each training state, rank the starting policy's action and this many "
@@ -315,11 +321,14 @@ class PolicyStage(Stage):
         q_ensemble: QEnsemble | RelationalQEnsemble,
         settings: StageSettings,
         simulate: Callable[[GaussianPolicy], float] | None = None,
+        network: GaussianPolicy | None = None,
     ) -> None:
         self.train, self.validation = train, validation
         self.simulate = simulate
         self.q_ensemble = q_ensemble.requires_grad_(False)
-        self.network = GaussianPolicy()
+        self.network = network if network is not None else GaussianPolicy()
+        # a geometric policy's probe inputs of the stored states, computed once (row order does not change them)
+        self.train_screen, self.validation_screen = policy_screen(self.network, train), policy_screen(self.network, validation)
         self.log_alpha = _LogAlpha()
         self.optimizer = torch.optim.Adam(self.network.parameters(), lr=settings.learning_rate)
         self.alpha_optimizer = torch.optim.Adam(self.log_alpha.parameters(), lr=settings.learning_rate)
@@ -355,7 +364,7 @@ class PolicyStage(Stage):
 
     def step(self, index: torch.Tensor, generator: torch.Generator) -> dict[str, float]:
         states = self.train.states(index, generator)
-        mean, log_std = self.network.distribution(states)
+        mean, log_std = self.network.distribution(states, **screen_argument(self.train_screen, index))
         actions, log_prob = self.network.sample_from(mean, log_std)
         q_min = self.q_ensemble.probabilities(states, actions).min(dim=1).values
         alpha = self.log_alpha.value.exp().detach()
@@ -377,10 +386,10 @@ class PolicyStage(Stage):
     @torch.no_grad()
     def evaluate(self) -> Evaluation:
         states = self.validation.states()
-        q_min = self.q_ensemble.probabilities(states, self.network(states)).min(dim=1).values
+        q_min = self.q_ensemble.probabilities(states, self.network(states, **screen_argument(self.validation_screen, slice(None)))).min(dim=1).values
         metrics = {"q_min_mean": float(q_min.mean()), "q_min_above_half": float((q_min > 0.5).float().mean())}
         if len(self.moved):  # how far the policy still is from the targets that are not its starting action
-            own = self.network(self.train.states(self.moved))
+            own = self.network(self.train.states(self.moved), **screen_argument(self.train_screen, self.moved))
             metrics["moved_target_distance"] = float((own - self.targets[self.moved]).square().sum(-1).mean())
         if self.simulate is None:
             return Evaluation(metrics["q_min_mean"], metrics)
@@ -503,6 +512,13 @@ def data_screen(network: nn.Module, data: SkillTensors) -> torch.Tensor | None:
     (:class:`~t2m_skills_tableenv.geometric_q.GeometricQEnsemble`); ``None`` for the other networks."""
     screen = getattr(network, "screen", None)
     return None if screen is None else screen(data.states(), data.actions)
+
+
+def policy_screen(network: nn.Module, data: SkillTensors) -> torch.Tensor | None:
+    """``(N, K)`` a geometric policy's probe inputs for the stored states of ``data`` (``None`` for
+    the published policy)."""
+    screen = getattr(network, "screen", None)
+    return None if screen is None else screen(data.states())
 
 
 def screen_argument(screen: torch.Tensor | None, index: torch.Tensor | slice) -> dict[str, torch.Tensor]:
@@ -673,7 +689,7 @@ def record_stage(checkpoint: Path, skill: str, model: str, settings: StageSettin
 
 ARCHITECTURES: dict[str, dict[str, Any]] = {
     "q": q_architecture("pick", "mlp"),
-    "policy": {"type": "GaussianPolicy", "input": 96, "hidden": [256, 256], "output": 8, "squash": "tanh", "log_std": [-5.0, 2.0]},
+    "policy": policy_architecture("pick", "mlp"),
     "dynamics": dynamics_architecture("pick", "mlp"),
 }
 """The published (MLP) architecture of each model; the MLPs do not depend on the skill."""
@@ -685,7 +701,7 @@ def architecture(skill: str, model: str, settings: StageSettings) -> dict[str, A
         return q_architecture(skill, settings.q_network, settings.screen)
     if model == "dynamics":
         return dynamics_architecture(skill, settings.dynamics_network)
-    return ARCHITECTURES[model]
+    return policy_architecture(skill, settings.policy_network)
 
 
 
@@ -785,13 +801,15 @@ def train_skill(
         elif model == "policy":
             q_ensemble = load_q(checkpoint)
             simulate = _simulated_selection(skill, simulator, stage_settings.selection_episodes) if stage_settings.selection_episodes else None
-            stage = PolicyStage(stage_train, validation, q_ensemble, stage_settings, simulate)
+            stage = PolicyStage(stage_train, validation, q_ensemble, stage_settings, simulate, build_policy(architecture(skill, "policy", stage_settings)))
         else:
             if init_from is not None:
                 _require_same_dynamics(Path(init_from) / skill, stage_settings.dynamics_network)
             stage = DynamicsStage(stage_train, validation, stage_settings, build_dynamics(architecture(skill, "dynamics", stage_settings)))
         distilled = model == "q" and init_from is not None and _distills(Path(init_from) / skill, stage_settings.q_network, bool(anchor_dirs))
-        if init_from is not None and not distilled:
+        if init_from is not None and model == "policy":
+            load_policy_weights(Path(init_from) / skill, stage.network)
+        elif init_from is not None and not distilled:
             load_weights(Path(init_from) / skill / WEIGHT_FILES[model], stage.network)
         started = time.perf_counter()
         # the bar counts the distinct states searched, then the steps

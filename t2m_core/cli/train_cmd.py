@@ -64,6 +64,10 @@ def train(
         str | None,
         typer.Option("--dynamics-network", help="Dynamics network: mlp (published), relational (reads the other objects as a set) or prior (corrects the primitive's geometric prediction)."),
     ] = None,
+    policy_network: Annotated[
+        str | None,
+        typer.Option("--policy-network", help="Policy network: mlp (published) or geometric (also reads which gripper yaws the primitive's geometric screen rules out)."),
+    ] = None,
     selection_episodes: Annotated[
         int | None,
         typer.Option("--selection-episodes", min=0, help="Simulated episodes selecting the policy at each evaluation (0: by the Q-ensemble)."),
@@ -145,7 +149,7 @@ def train(
     trainer = library_entry(library, "trainer")
     chosen = (
         ("steps", steps), ("eval_every", eval_every), ("learning_rate", learning_rate), ("train_size", train_size), ("ensemble_batches", ensemble_batches),
-        ("selection_episodes", selection_episodes), ("q_network", q_network), ("dynamics_network", dynamics_network), ("anchor_weight", anchor_weight),
+        ("selection_episodes", selection_episodes), ("q_network", q_network), ("dynamics_network", dynamics_network), ("policy_network", policy_network), ("anchor_weight", anchor_weight),
         ("exposure_weight", exposure_weight), ("policy_targets", policy_targets), ("screen", _names(screen)), ("policy_target_sigma", policy_target_sigma),
         ("policy_target_weight", policy_target_weight), ("policy_target_value", policy_target_value), ("policy_target_margin", policy_target_margin),
         ("policy_target_uniform", policy_target_uniform), ("policy_target_focus", policy_target_focus),

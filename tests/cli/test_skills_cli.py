@@ -267,3 +267,31 @@ def test_a_geometric_ensemble_trains_on_the_screen_predictions_chosen(tmp_path) 
     unread = runner.invoke(app, [*common, "--screen", "clearance", "--out", str(tmp_path / "x")])
     assert unread.exit_code == 2 and "--q-network geometric" in unread.output
     assert not (tmp_path / "x").exists()
+
+
+def test_a_geometric_policy_trains_and_an_unknown_policy_network_is_refused(tmp_path) -> None:
+    """``--policy-network geometric``: the checkpoint records the probes' network and its weights
+    load into it; an unknown name is refused before any training."""
+    from t2m_skills_tableenv.checkpoints import load_weights
+    from t2m_skills_tableenv.geometric_policy import GeometricGaussianPolicy, build_policy
+
+    data = tmp_path / "data"
+    patch = pytest.MonkeyPatch()
+    patch.setattr(generate, "_WORKER_SIMULATORS", {("scripted", "[]"): ScriptedSimulator(lambda action: action[1] > 0.0)})
+    try:
+        for split, size, seed in (("train", 200, 1), ("validation", 100, 2)):
+            generate_dataset(DatasetJob(data, "pull", split, size, 100, base_seed=seed, sampler="uniform", simulator="scripted"))
+    finally:
+        patch.undo()
+    common = ["train", "--skill", "pull", "--data", str(data), "--steps", "20", "--eval-every", "10", "--selection-episodes", "0"]
+    assert runner.invoke(app, [*common, "--model", "q", "--out", str(tmp_path / "out")]).exit_code == 0
+    trained = runner.invoke(app, [*common, "--model", "policy", "--policy-network", "geometric", "--out", str(tmp_path / "out")])
+    assert trained.exit_code == 0, trained.output
+    policy = json.loads((tmp_path / "out" / "pull" / "config.json").read_text())["models"]["policy"]
+    assert policy["architecture"]["type"] == "GeometricGaussianPolicy" and policy["architecture"]["input"] == 105
+    assert policy["training"]["policy_network"] == "geometric"
+    network = load_weights(tmp_path / "out" / "pull" / "policy.safetensors", build_policy(policy["architecture"]))
+    assert isinstance(network, GeometricGaussianPolicy) and network.skill == "pull"
+    unknown = runner.invoke(app, [*common, "--model", "policy", "--policy-network", "transformer", "--out", str(tmp_path / "x")])
+    assert unknown.exit_code == 2 and "policy_network" in unknown.output and "Traceback" not in unknown.output
+    assert not (tmp_path / "x").exists()
