@@ -243,11 +243,9 @@ def test_a_bad_rollout_skeleton_is_refused_before_any_work(tmp_path) -> None:
     assert not list((tmp_path / "out").rglob("*.safetensors"))
 
 
-def test_a_geometric_ensemble_trains_on_the_screen_predictions_chosen(tmp_path) -> None:
-    """``--screen`` picks the predictions the network reads (a flag and a margin here, not Pull's
-    default two margins): the trained checkpoint is that network; names the primitive does not predict, or a
-    network that reads no screen, are refused before any training."""
-    data = tmp_path / "data"
+def scripted_pull_data(data):
+    """Train (200) and validation (100) Pull splits in ``data`` from a scripted simulator in which
+    an action succeeds where its second component is positive."""
     patch = pytest.MonkeyPatch()
     patch.setattr(generate, "_WORKER_SIMULATORS", {("scripted", "[]"): ScriptedSimulator(lambda action: action[1] > 0.0)})
     try:
@@ -255,6 +253,14 @@ def test_a_geometric_ensemble_trains_on_the_screen_predictions_chosen(tmp_path) 
             generate_dataset(DatasetJob(data, "pull", split, size, 100, base_seed=seed, sampler="uniform", simulator="scripted"))
     finally:
         patch.undo()
+    return data
+
+
+def test_a_geometric_ensemble_trains_on_the_screen_predictions_chosen(tmp_path) -> None:
+    """``--screen`` picks the predictions the network reads (a flag and a margin here, not Pull's
+    default two margins): the trained checkpoint is that network; names the primitive does not predict, or a
+    network that reads no screen, are refused before any training."""
+    data = scripted_pull_data(tmp_path / "data")
     common = ["train", "--skill", "pull", "--model", "q", "--data", str(data), "--steps", "20", "--eval-every", "10"]
     trained = runner.invoke(app, [*common, "--q-network", "geometric", "--screen", "in_the_way, reach_margin", "--out", str(tmp_path / "out")])
     assert trained.exit_code == 0, trained.output
@@ -275,14 +281,7 @@ def test_a_geometric_policy_trains_and_an_unknown_policy_network_is_refused(tmp_
     from t2m_skills_tableenv.checkpoints import load_weights
     from t2m_skills_tableenv.geometric_policy import GeometricGaussianPolicy, build_policy
 
-    data = tmp_path / "data"
-    patch = pytest.MonkeyPatch()
-    patch.setattr(generate, "_WORKER_SIMULATORS", {("scripted", "[]"): ScriptedSimulator(lambda action: action[1] > 0.0)})
-    try:
-        for split, size, seed in (("train", 200, 1), ("validation", 100, 2)):
-            generate_dataset(DatasetJob(data, "pull", split, size, 100, base_seed=seed, sampler="uniform", simulator="scripted"))
-    finally:
-        patch.undo()
+    data = scripted_pull_data(tmp_path / "data")
     common = ["train", "--skill", "pull", "--data", str(data), "--steps", "20", "--eval-every", "10", "--selection-episodes", "0"]
     assert runner.invoke(app, [*common, "--model", "q", "--out", str(tmp_path / "out")]).exit_code == 0
     trained = runner.invoke(app, [*common, "--model", "policy", "--policy-network", "geometric", "--out", str(tmp_path / "out")])
