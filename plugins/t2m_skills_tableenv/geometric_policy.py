@@ -18,7 +18,7 @@ import numpy as np
 import torch
 
 from t2m_core.domain.observation import FEATURES, OBSERVATION_ROWS, unnormalize
-from t2m_skills_tableenv.networks import ACTION_DIM, HIDDEN, STATE_DIM, GaussianPolicy, mlp
+from t2m_skills_tableenv.networks import ACTION_DIM, HIDDEN, STATE_DIM, GaussianPolicy
 
 PROBES = 9
 """Probe yaws, evenly spread over the normalised yaw's [−1, 1] (a quarter turn of Pick's grasp is 1.0)."""
@@ -43,9 +43,8 @@ class GeometricGaussianPolicy(GaussianPolicy):
     """
 
     def __init__(self, skill: str, probes: int = PROBES, hidden: tuple[int, ...] = HIDDEN) -> None:
-        super().__init__(hidden)
+        super().__init__(hidden, extra_inputs=probes)
         self.skill, self.probes = skill, probes
-        self.net = mlp((STATE_DIM + probes, *hidden, 2 * ACTION_DIM))
 
     @classmethod
     def from_policy(cls, skill: str, policy: GaussianPolicy, probes: int = PROBES) -> GeometricGaussianPolicy:

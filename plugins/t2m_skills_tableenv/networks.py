@@ -248,11 +248,11 @@ def mlp(sizes: tuple[int, ...]) -> nn.Sequential:
 
 class GaussianPolicy(nn.Module):
     """``96 → 256 → 256 → 8``: mean μ and raw log σ of a tanh-squashed diagonal Gaussian; log σ is
-    squashed to [−5, 2]."""
+    squashed to [−5, 2]. ``extra_inputs`` widens the input for a subclass that reads more than the state."""
 
-    def __init__(self, hidden: tuple[int, ...] = HIDDEN) -> None:
+    def __init__(self, hidden: tuple[int, ...] = HIDDEN, extra_inputs: int = 0) -> None:
         super().__init__()
-        self.net = mlp((STATE_DIM, *hidden, 2 * ACTION_DIM))
+        self.net = mlp((STATE_DIM + extra_inputs, *hidden, 2 * ACTION_DIM))
 
     def distribution(self, states: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """``(mean, log_std)``, each ``(N, 4)``."""

@@ -308,6 +308,10 @@ class PolicyStage(Stage):
     (:func:`searched_actions`): the same objective, searched by sampling where the gradient stops at
     a worse local optimum (docs/guide/skills.md#searched-actor-targets).
 
+    ``network`` is the policy to train (the published MLP when none is given; a
+    :class:`~t2m_skills_tableenv.geometric_policy.GeometricGaussianPolicy` gets its probe inputs of
+    the stored states computed once).
+
     The policy is selected by ``simulate(network) -> success rate`` in simulated evaluation scenes
     when given (the published selection), else by the ensemble's mean min-of-8 Q of its actions on
     validation states (a policy can climb that by exploiting the ensemble's errors)."""
@@ -522,7 +526,7 @@ def policy_screen(network: nn.Module, data: SkillTensors) -> torch.Tensor | None
 
 
 def screen_argument(screen: torch.Tensor | None, index: torch.Tensor | slice) -> dict[str, torch.Tensor]:
-    """The keyword a geometric ensemble takes for the stored pairs ``index`` (none for the others)."""
+    """The keyword a geometric ensemble or policy takes for the stored rows ``index`` (none for the others)."""
     return {} if screen is None else {"screen": screen[index]}
 
 

@@ -8,7 +8,13 @@ import numpy as np
 import pytest
 import torch
 from t2m_skills_tableenv.checkpoints import CheckpointError, save_weights, update_config
-from t2m_skills_tableenv.geometric_policy import GeometricGaussianPolicy, build_policy, load_policy_weights, policy_architecture, probe_actions
+from t2m_skills_tableenv.geometric_policy import (
+    GeometricGaussianPolicy,
+    build_policy,
+    load_policy_weights,
+    policy_architecture,
+    probe_actions,
+)
 from t2m_skills_tableenv.library import TableEnvSkill
 from t2m_skills_tableenv.networks import Dynamics, GaussianPolicy, QEnsemble
 from t2m_skills_tableenv.training import ARCHITECTURES, WEIGHT_FILES
