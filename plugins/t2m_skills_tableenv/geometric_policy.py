@@ -59,12 +59,13 @@ class GeometricGaussianPolicy(GaussianPolicy):
 
     def screen(self, states: torch.Tensor) -> torch.Tensor:
         """``(N, K)`` the probe inputs of normalised ``states (N, 96)``: +0.5 where the probe is in the way."""
-        from t2m_skills_tableenv.geometric_screen import screen_values
+        from t2m_skills_tableenv.geometric_screen import screen_inputs, screen_values
 
         rows = unnormalize(states.detach().cpu().numpy().reshape(-1, OBSERVATION_ROWS, FEATURES))
         probes = probe_actions(self.probes)
         flags = screen_values(self.skill, np.repeat(rows, self.probes, axis=0), np.tile(probes, (len(rows), 1)), ("in_the_way",))
-        return torch.from_numpy(flags.reshape(len(rows), self.probes) - 0.5).to(device=states.device, dtype=states.dtype)
+        inputs = screen_inputs(flags, ("in_the_way",))  # a flag enters as ±0.5, as in the geometric Q-ensemble
+        return torch.from_numpy(inputs.reshape(len(rows), self.probes)).to(device=states.device, dtype=states.dtype)
 
     def distribution(self, states: torch.Tensor, screen: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
         if screen is None:
