@@ -39,7 +39,7 @@ its flag and five margins (without ``support_margin``, task1's plans set boxes d
 table's edge; without ``balance_margin``, task6's set the hook down with its head beyond it, and it
 rolled off about its handle: docs/guide/skills.md#pull-push-and-place)."""
 MARGIN_SCALES: dict[str, float] = {
-    "clearance": 0.05, "reach_margin": 0.05, "under_depth": 0.1, "leg_clearance": 0.05, "support_gap": 0.02, "workspace_margin": 0.05,
+    "clearance": 0.05, "reach_margin": 0.05, "under_depth": 0.1, "leg_clearance": 0.05, "footprint_gap": 0.01, "support_gap": 0.02, "workspace_margin": 0.05,
     "support_margin": 0.05, "balance_margin": 0.02,
 }
 """Predictions that are margins in metres, and the margin that enters a network as ±0.5
@@ -47,6 +47,7 @@ MARGIN_SCALES: dict[str, float] = {
 clearances and ``reach_margin`` inside the arm's reach (negative where ``in_the_way`` or
 ``unreachable``); Push's ``under_depth`` of the box under the rack and ``leg_clearance`` of the
 swept box from the rack's legs; Place's ``clearance`` of the set-down object from the bystanders,
+``footprint_gap`` from those that rise above its lowest point (negative: how deep it overlaps one),
 ``support_gap`` between its lowest point and the target's surface at the release,
 ``workspace_margin`` of the release, ``support_margin`` of its centre of mass inside the target's top
 and ``balance_margin`` of it inside the part of its resting hull that the top holds up.

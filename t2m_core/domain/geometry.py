@@ -381,6 +381,21 @@ def hull_distances(points_a: np.ndarray, edges_a: np.ndarray, points_b: np.ndarr
     return np.where(overlap, 0.0, np.sqrt(distance2))
 
 
+def signed_hull_distances(points_a: np.ndarray, edges_a: np.ndarray, points_b: np.ndarray, edges_b: np.ndarray) -> np.ndarray:
+    """:func:`hull_distances` where the hulls lie apart, minus the penetration depth where they
+    overlap (the shortest translation that separates them: along the unit normals of both hulls'
+    segments, the least move that clears one's projection past the other's), metres; arguments as :func:`hull_distances` takes them."""
+    normals = np.concatenate((_segment_normals(edges_a), _segment_normals(edges_b)), axis=-2)  # (..., S, 2)
+    length = np.linalg.norm(normals, axis=-1)
+    axes = np.swapaxes(normals / np.maximum(length, 1e-30)[..., None], -1, -2)
+    proj_a, proj_b = points_a @ axes, points_b @ axes  # (..., M, S)
+    # the shorter of the two moves along an axis that clear one projection past the other (one hull
+    # inside the other needs more than their overlap)
+    overlap = np.minimum(proj_a.max(axis=-2) - proj_b.min(axis=-2), proj_b.max(axis=-2) - proj_a.min(axis=-2))
+    depth = np.where(length > 1e-12, overlap, np.inf).min(axis=-1)  # a zero-length segment separates nothing
+    return np.where(depth > 0.0, -depth, hull_distances(points_a, edges_a, points_b, edges_b))
+
+
 def _segment_normals(segments: np.ndarray) -> np.ndarray:
     """``(..., S, 2)`` unnormalised normals of ``(..., S, 2, 2)`` segments; zero for a zero-length one,
     which separates nothing."""

@@ -532,6 +532,21 @@ def test_place_margins_measure_the_drop_to_the_support_and_the_workspace(holding
     assert judged["in_the_way"].tolist() == [False, True]
 
 
+def test_place_footprint_gap_is_signed_and_ignores_what_stands_below_the_release(holding: GeometricState) -> None:
+    # The held red box set down beside the cyan box (jaw across) 3 cm and 5 mm apart, and 4 mm into
+    # it: the gap, or minus the depth, where clearance reads -1 cm for any overlap.
+    half_widths = (OBJECTS["red_box"].size[1] + OBJECTS["cyan_box"].size[1]) / 2
+    beside = np.array([[*_table_action(0.6, 0.2 + half_widths + gap)[:2], 0.05, math.pi / 2] for gap in (0.03, 0.005, -0.004, -0.02)])
+    judged = PLACE.screen_of_states([holding], ["red_box", "table"], beside, np.zeros(4, dtype=int))
+    np.testing.assert_allclose(judged["footprint_gap"], [0.03, 0.005, -0.004, -0.02], atol=1e-9)
+    np.testing.assert_allclose(judged["clearance"], [0.02, -0.005, -0.01, -0.01], atol=1e-9)
+    # The cyan box (7 cm tall) under the rack's plate (16 cm up): a box set down on the plate above it
+    # comes nowhere near it (nothing else stands within 5 cm), though their footprints overlap.
+    under = GeometricState({**holding.objects, "cyan_box": on_table("cyan_box", 0.44, -0.33)}, holding.ee_position, held="red_box")
+    on_rack = PLACE.screen_of_states([under], ["red_box", "rack"], np.array([[0.0, 0.0, 0.05, 0.0]]), np.zeros(1, dtype=int))
+    assert on_rack["footprint_gap"][0] == pytest.approx(0.05) and on_rack["clearance"][0] == pytest.approx(-0.01)
+
+
 def _grasp(theta: float = 0.0, z: float = 0.0) -> np.ndarray:
     """The physical Pick action of a grasp at the object's centre, ``z`` metres up, jaw yawed ``theta``."""
     return np.array([0.0, 0.0, z, theta])

@@ -150,7 +150,7 @@ class Place(Primitive):
         return self.screen_of_states([state], arguments, physical, np.zeros(len(physical), dtype=np.int64))["in_the_way"]
 
     screen_predictions: tuple[str, ...] = (
-        "in_the_way", "too_high", "clearance", "support_gap", "workspace_margin", "support_margin", "balance_margin",
+        "in_the_way", "too_high", "clearance", "footprint_gap", "support_gap", "workspace_margin", "support_margin", "balance_margin",
     )
     """The predictions :meth:`screen_of_states` makes."""
 
@@ -162,11 +162,16 @@ class Place(Primitive):
         predicted state; the states hold the same objects, and an object's geometry is computed
         once per distinct pose), each ``(B,)``: ``"in_the_way"`` (:meth:`in_the_way`), ``"too_high"``
         (the held object's lowest point more than :data:`MAX_DROP_DISTANCE` above the target's
-        surface at the release: the descent's check fails it), and five
+        surface at the release: the descent's check fails it), and six
         margins in metres: ``"clearance"``, how far the held object's footprint at the release
         clears the bystanders beyond :data:`~t2m_core.domain.primitives.sweep_screen.TOOL_CLEARANCE`
         (up to :data:`~t2m_core.domain.primitives.sweep_screen.CLEARANCE_RANGE`; the fingers' strike
-        stays a flag); ``"support_gap"``, how far above the target's surface the held object's lowest
+        stays a flag); ``"footprint_gap"``, how far that footprint lies from the nearest part of a
+        bystander that rises above the held object's lowest point at the release, minus how deep it
+        reaches into one where they overlap (within ±``CLEARANCE_RANGE``: the descent brushes a
+        bystander a few millimetres deep often enough unseen by the contact checks, 10 ticks apart, and
+        pushes it aside by less than a disturbance, while ``clearance`` reads the same for every
+        overlap); ``"support_gap"`, how far above the target's surface the held object's lowest
         point is at the release (the object carried rigidly; the descent touching the support
         fails, and the measured placements fail mostly below −1 mm); ``"workspace_margin"``, how far
         inside the workspace the release lies (:func:`~t2m_core.domain.constants.workspace_margin`;
@@ -201,24 +206,32 @@ class Place(Primitive):
         first, target_group = pose_groups(states, [name for name in states[0].objects if name != target])
         tops = pad_polygons([convex_hull_2d(np.concatenate(geometry(target, states[i].objects[target]).footprints)) for i in first])
         tops = tops[target_group]
-        first, bystander_group = pose_groups(states, arguments)
-        obstacles = [obstacle_footprints(bystanders(states[i], arguments, geometry)) for i in first]  # (N, K_g, 2) each
-        if obstacles[0].shape[0] == 0:
-            clearance = np.full(len(physical), CLEARANCE_RANGE)
-        else:
-            footprints = yawed_footprints(object_spec(obj), positions, yaws)  # (B, P, 4, 2)
-            obstacles = pad_polygons(obstacles)[bystander_group[state_of]]  # (B, N, K, 2)
-            clearance = nearest_gaps(footprints, polygon_edges(footprints), obstacles, TOOL_CLEARANCE + CLEARANCE_RANGE) - TOOL_CLEARANCE
-        mass_centres = yawed_polygons(object_spec(obj).centre_of_mass()[None, None, :2], positions, yaws)[:, 0, 0]  # (B, 2)
-        balance = balance_margins(obj, positions, yaws, mass_centres, tops[state_of])
         # the EE's height above the held object's lowest point, and the target's surface
         lowest = np.array([state.ee_position[2] - shape.aabb[0][2] for state, shape in zip(states, held_geometry, strict=True)])
         surface = np.array([state.objects[target].position[2] for state in states])
-        support_gap = release[:, 2] - lowest[state_of] - surface[state_of]
+        bottom = release[:, 2] - lowest[state_of]  # (B,) the held object's lowest point at the release
+        first, bystander_group = pose_groups(states, arguments)
+        others = [bystanders(states[i], arguments, geometry) for i in first]
+        obstacles = [obstacle_footprints(shapes) for shapes in others]  # (N, K_g, 2) each
+        if obstacles[0].shape[0] == 0:
+            clearance = np.full(len(physical), CLEARANCE_RANGE)
+            footprint_gap = np.full(len(physical), CLEARANCE_RANGE)
+        else:
+            footprints = yawed_footprints(object_spec(obj), positions, yaws)  # (B, P, 4, 2)
+            edges = polygon_edges(footprints)
+            obstacles = pad_polygons(obstacles)[bystander_group[state_of]]  # (B, N, K, 2)
+            clearance = nearest_gaps(footprints, edges, obstacles, TOOL_CLEARANCE + CLEARANCE_RANGE) - TOOL_CLEARANCE
+            part_tops = np.array([[top for shape in shapes for top in shape.part_corners[..., 2].max(axis=-1)] for shapes in others])
+            rising = part_tops[bystander_group[state_of]] > bottom[:, None]  # (B, N)
+            footprint_gap = np.maximum(nearest_gaps(footprints, edges, obstacles, CLEARANCE_RANGE, signed=True, eligible=rising), -CLEARANCE_RANGE)
+        mass_centres = yawed_polygons(object_spec(obj).centre_of_mass()[None, None, :2], positions, yaws)[:, 0, 0]  # (B, 2)
+        balance = balance_margins(obj, positions, yaws, mass_centres, tops[state_of])
+        support_gap = bottom - surface[state_of]
         return {
             "in_the_way": struck | (clearance < 0.0),
             "too_high": support_gap > MAX_DROP_DISTANCE,
             "clearance": clearance,
+            "footprint_gap": footprint_gap,
             "support_gap": support_gap,
             "workspace_margin": workspace_margin(release[:, 0], release[:, 1]),
             "support_margin": inside_margins(mass_centres, tops[state_of]),

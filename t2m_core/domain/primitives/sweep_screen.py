@@ -35,6 +35,7 @@ from t2m_core.domain.geometry import (
     penetration_depths,
     polygon_edges,
     quat_to_matrix,
+    signed_hull_distances,
     translation_hull,
     yawed_footprints,
 )
@@ -305,9 +306,14 @@ def comes_near(points: np.ndarray, edges: np.ndarray, obstacles: np.ndarray, cle
     return nearest_gaps(points, edges, obstacles, clearance) < clearance
 
 
-def nearest_gaps(points: np.ndarray, edges: np.ndarray, obstacles: np.ndarray, within: float) -> np.ndarray:
+def nearest_gaps(
+    points: np.ndarray, edges: np.ndarray, obstacles: np.ndarray, within: float, *, signed: bool = False, eligible: np.ndarray | None = None
+) -> np.ndarray:
     """``(B,)`` the smallest distance from any region of a draw to any obstacle (arguments as
-    :func:`comes_near` takes them), metres; ``within`` where every one lies at least that far."""
+    :func:`comes_near` takes them), metres; ``within`` where every one lies at least that far.
+    ``signed``: an overlapping pair counts minus its penetration depth
+    (:func:`~t2m_core.domain.geometry.signed_hull_distances`) instead of 0; ``eligible``: ``(B, N)``
+    (or ``(N,)``) which obstacles count for each draw (default all)."""
     per_draw = obstacles.ndim == 4
     # Most regions are far from most obstacles: the gap between bounding boxes, which never exceeds
     # the distance, rules those pairs out before the exact test.
@@ -317,10 +323,15 @@ def nearest_gaps(points: np.ndarray, edges: np.ndarray, obstacles: np.ndarray, w
         region_axes = (slice(None),) + (None,) * (points.ndim - 3)
         obstacle_low, obstacle_high = obstacle_low[region_axes], obstacle_high[region_axes]
     gaps = np.maximum(0.0, np.maximum(obstacle_low - high, low - obstacle_high))  # (B, ..., N, 2)
-    *region, obstacle = np.nonzero(np.sum(gaps * gaps, axis=-1) < within**2)
+    near = np.sum(gaps * gaps, axis=-1) < within**2  # (B, ..., N)
+    if eligible is not None:
+        eligible = np.asarray(eligible, dtype=bool)
+        near &= (eligible.reshape(len(eligible), *(1,) * (near.ndim - 2), -1) if eligible.ndim == 2 else eligible)
+    *region, obstacle = np.nonzero(near)
     nearest = np.full(len(points), float(within))
     candidates = obstacles[region[0], obstacle] if per_draw else obstacles[obstacle]
-    distances = hull_distances(points[*region], edges[*region], candidates, polygon_edges(candidates))
+    distance = signed_hull_distances if signed else hull_distances
+    distances = distance(points[*region], edges[*region], candidates, polygon_edges(candidates))
     np.minimum.at(nearest, region[0], distances)
     return nearest
 

@@ -212,3 +212,20 @@ def test_pull_margins_read_from_the_rows_and_enter_the_network_scaled() -> None:
     np.testing.assert_allclose(screen_inputs(np.array([[1.0, 0.025, -0.2], [0.0, np.inf, -np.inf]]), features), [[0.5, 0.25, -0.5], [-0.5, 0.5, -0.5]])
     with pytest.raises(ValueError, match="clearance are margins"):
         screen_flags("pull", refused, draws, ("in_the_way", "clearance"))
+
+
+def test_every_margin_place_predicts_enters_the_network_scaled() -> None:
+    """A prediction that is not a flag must have a scale (without one it would enter as a flag,
+    value − 0.5); Place's ``footprint_gap`` reads ±1 cm as ±0.5."""
+    from t2m_skills_tableenv.geometric_screen import MARGIN_SCALES, screen_inputs
+
+    from t2m_core.domain.state import GeometricState, ObjectPose
+
+    table = scene(rack=RACK_IN_WORKSPACE, cyan_box=on_table("cyan_box", 0.6, 0.2))
+    holding = GeometricState({**table.objects, "red_box": ObjectPose([0.45, 0.1, 0.37])}, np.array([0.45, 0.1, 0.40]), held="red_box")
+    place = PRIMITIVES["place"]
+    judged = place.screen_of_states([holding], ["red_box", "table"], np.array([[0.0, 0.0, 0.05, 0.0]]), np.zeros(1, dtype=int))
+    assert set(judged) == set(place.screen_predictions)
+    for name, values in judged.items():
+        assert values.dtype == bool or name in MARGIN_SCALES, f"{name} is a margin without a scale"
+    np.testing.assert_allclose(screen_inputs(np.array([[-0.004, 0.03, -np.inf]]), ("footprint_gap",) * 3), [[-0.2, 0.5, -0.5]])
