@@ -28,6 +28,7 @@ from t2m_core.domain.geometry import (
     polygon_edges,
     quat_yaw,
     rotate,
+    signed_hull_distances,
     wrap_angle,
     yaw_to_quat,
     yawed_footprints,
@@ -55,7 +56,7 @@ from t2m_core.domain.primitives.sweep_screen import (
     CLEARANCE_RANGE,
     TOOL_CLEARANCE,
     bystanders,
-    nearest_gaps,
+    near_pairs,
     obstacle_footprints,
 )
 from t2m_core.domain.state import GeometricState, pose_groups
@@ -218,12 +219,18 @@ class Place(Primitive):
             footprint_gap = np.full(len(physical), CLEARANCE_RANGE)
         else:
             footprints = yawed_footprints(object_spec(obj), positions, yaws)  # (B, P, 4, 2)
-            edges = polygon_edges(footprints)
             obstacles = pad_polygons(obstacles)[bystander_group[state_of]]  # (B, N, K, 2)
-            clearance = nearest_gaps(footprints, edges, obstacles, TOOL_CLEARANCE + CLEARANCE_RANGE) - TOOL_CLEARANCE
+            # one exact test per near pair serves both margins: the signed distance is the plain one apart
+            (draw, part), obstacle, candidates = near_pairs(footprints, obstacles, TOOL_CLEARANCE + CLEARANCE_RANGE)
+            signed = signed_hull_distances(footprints[draw, part], polygon_edges(footprints[draw, part]), candidates, polygon_edges(candidates))
+            clearance = np.full(len(physical), TOOL_CLEARANCE + CLEARANCE_RANGE)
+            np.minimum.at(clearance, draw, np.maximum(signed, 0.0))
+            clearance -= TOOL_CLEARANCE
             part_tops = np.array([[top for shape in shapes for top in shape.part_corners[..., 2].max(axis=-1)] for shapes in others])
-            rising = part_tops[bystander_group[state_of]] > bottom[:, None]  # (B, N)
-            footprint_gap = np.maximum(nearest_gaps(footprints, edges, obstacles, CLEARANCE_RANGE, signed=True, eligible=rising), -CLEARANCE_RANGE)
+            rising = part_tops[bystander_group[state_of]][draw, obstacle] > bottom[draw]  # the part rises above the set-down object
+            footprint_gap = np.full(len(physical), CLEARANCE_RANGE)
+            np.minimum.at(footprint_gap, draw[rising], signed[rising])
+            footprint_gap = np.clip(footprint_gap, -CLEARANCE_RANGE, CLEARANCE_RANGE)
         mass_centres = yawed_polygons(object_spec(obj).centre_of_mass()[None, None, :2], positions, yaws)[:, 0, 0]  # (B, 2)
         balance = balance_margins(obj, positions, yaws, mass_centres, tops[state_of])
         support_gap = bottom - surface[state_of]

@@ -35,7 +35,6 @@ from t2m_core.domain.geometry import (
     penetration_depths,
     polygon_edges,
     quat_to_matrix,
-    signed_hull_distances,
     translation_hull,
     yawed_footprints,
 )
@@ -306,32 +305,30 @@ def comes_near(points: np.ndarray, edges: np.ndarray, obstacles: np.ndarray, cle
     return nearest_gaps(points, edges, obstacles, clearance) < clearance
 
 
-def nearest_gaps(
-    points: np.ndarray, edges: np.ndarray, obstacles: np.ndarray, within: float, *, signed: bool = False, eligible: np.ndarray | None = None
-) -> np.ndarray:
-    """``(B,)`` the smallest distance from any region of a draw to any obstacle (arguments as
-    :func:`comes_near` takes them), metres; ``within`` where every one lies at least that far.
-    ``signed``: an overlapping pair counts minus its penetration depth
-    (:func:`~t2m_core.domain.geometry.signed_hull_distances`) instead of 0; ``eligible``: ``(B, N)``
-    (or ``(N,)``) which obstacles count for each draw (default all)."""
+def near_pairs(points: np.ndarray, obstacles: np.ndarray, within: float) -> tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray]:
+    """The pairs of a draw's region and an obstacle whose bounding boxes come within ``within``
+    metres (arguments as :func:`comes_near` takes them): ``(region, obstacle, candidates)``, the
+    region's index arrays (the first the draw's), each pair's obstacle index and ``(P, K, 2)``
+    polygon. The gap between bounding boxes never exceeds the distance, so no other pair lies
+    within ``within``; most regions are far from most obstacles, and only these need an exact test."""
     per_draw = obstacles.ndim == 4
-    # Most regions are far from most obstacles: the gap between bounding boxes, which never exceeds
-    # the distance, rules those pairs out before the exact test.
     low, high = points.min(axis=-2)[..., None, :], points.max(axis=-2)[..., None, :]
     obstacle_low, obstacle_high = obstacles.min(axis=-2), obstacles.max(axis=-2)  # ([B,] N, 2)
     if per_draw:  # one axis per region axis of a draw
         region_axes = (slice(None),) + (None,) * (points.ndim - 3)
         obstacle_low, obstacle_high = obstacle_low[region_axes], obstacle_high[region_axes]
     gaps = np.maximum(0.0, np.maximum(obstacle_low - high, low - obstacle_high))  # (B, ..., N, 2)
-    near = np.sum(gaps * gaps, axis=-1) < within**2  # (B, ..., N)
-    if eligible is not None:
-        eligible = np.asarray(eligible, dtype=bool)
-        near &= (eligible.reshape(len(eligible), *(1,) * (near.ndim - 2), -1) if eligible.ndim == 2 else eligible)
-    *region, obstacle = np.nonzero(near)
-    nearest = np.full(len(points), float(within))
+    *region, obstacle = np.nonzero(np.sum(gaps * gaps, axis=-1) < within**2)
     candidates = obstacles[region[0], obstacle] if per_draw else obstacles[obstacle]
-    distance = signed_hull_distances if signed else hull_distances
-    distances = distance(points[*region], edges[*region], candidates, polygon_edges(candidates))
+    return tuple(region), obstacle, candidates
+
+
+def nearest_gaps(points: np.ndarray, edges: np.ndarray, obstacles: np.ndarray, within: float) -> np.ndarray:
+    """``(B,)`` the smallest distance from any region of a draw to any obstacle (arguments as
+    :func:`comes_near` takes them), metres; ``within`` where every one lies at least that far."""
+    region, _, candidates = near_pairs(points, obstacles, within)
+    nearest = np.full(len(points), float(within))
+    distances = hull_distances(points[*region], edges[*region], candidates, polygon_edges(candidates))
     np.minimum.at(nearest, region[0], distances)
     return nearest
 
