@@ -172,7 +172,7 @@ class Place(Primitive):
         reaches into one where they overlap (within ±``CLEARANCE_RANGE``: the descent brushes a
         bystander a few millimetres deep often enough unseen by the contact checks, 10 ticks apart, and
         pushes it aside by less than a disturbance, while ``clearance`` reads the same for every
-        overlap); ``"support_gap"`, how far above the target's surface the held object's lowest
+        overlap); ``"support_gap"``, how far above the target's surface the held object's lowest
         point is at the release (the object carried rigidly; the descent touching the support
         fails, and the measured placements fail mostly below −1 mm); ``"workspace_margin"``, how far
         inside the workspace the release lies (:func:`~t2m_core.domain.constants.workspace_margin`;
