@@ -25,6 +25,7 @@ from collections import Counter
 from pathlib import Path
 
 import numpy as np
+import torch
 from action_ranking import roc_auc
 from t2m_skills_tableenv.dataset import SkillTensors
 from t2m_skills_tableenv.library import load_library
@@ -100,6 +101,19 @@ def _aucs(flagged: np.ndarray, values: np.ndarray, success: np.ndarray) -> dict:
     }
 
 
+def min_of_8(skill: str, transitions: Transitions, checkpoints: Path | None = None) -> np.ndarray:
+    """``(N,)`` the min-of-8 value of each transition by ``skill``'s Q-ensemble in the library at
+    ``checkpoints`` (default: the shipped one).
+
+    Raises:
+        T2MError: a missing or broken checkpoint.
+    """
+    options = TableEnvSkillsOptions() if checkpoints is None else TableEnvSkillsOptions(checkpoints=Path(checkpoints))
+    tensors = SkillTensors.from_transitions(transitions)
+    with torch.no_grad():
+        return load_library(options)[skill].q_values(tensors.states(), tensors.actions).min(dim=1).values.numpy()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("dataset", type=Path, help="dataset directory written by `t2m datagen`")
@@ -110,12 +124,9 @@ def main() -> None:
     args = parser.parse_args()
     try:
         transitions = load_split(args.dataset / args.skill / args.split)
-        options = TableEnvSkillsOptions() if args.checkpoints is None else TableEnvSkillsOptions(checkpoints=args.checkpoints)
-        skill = load_library(options)[args.skill]
+        values = min_of_8(args.skill, transitions, args.checkpoints)
     except T2MError as error:
         sys.exit(f"{error.message}: {error.hint}" if error.hint else error.message)
-    tensors = SkillTensors.from_transitions(transitions)
-    values = skill.q_values(tensors.states(), tensors.actions).min(dim=1).values.numpy()
     report = measure(args.skill, transitions, values)
     _print(f"{args.skill}: {report['transitions']} transitions of {args.dataset / args.skill / args.split}", args.skill, report)
     for kind, part in report["by_call"].items():

@@ -22,6 +22,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from geometric_prediction import min_of_8
 from support_margin import place_margins
 
 from t2m_core.atomic_files import write_json_atomic
@@ -30,20 +31,6 @@ from t2m_core.errors import T2MError
 
 EDGES_MM = (-np.inf, -10.0, -5.0, -2.0, 0.0, 2.0, 5.0, 10.0, np.inf)
 """Bin edges of the footprint gap, millimetres."""
-
-
-def min_of_8(checkpoints: str, transitions) -> np.ndarray:
-    """``(N,)`` the Place ensemble's min-of-8 value of each transition, from the library in ``checkpoints``."""
-    import torch
-    from t2m_skills_tableenv.dataset import SkillTensors
-    from t2m_skills_tableenv.library import load_library
-    from t2m_skills_tableenv.options import TableEnvSkillsOptions
-
-    options = TableEnvSkillsOptions() if checkpoints == "shipped" else TableEnvSkillsOptions(checkpoints=Path(checkpoints))
-    skill = load_library(options)["place"]
-    data = SkillTensors.from_transitions(transitions)
-    with torch.no_grad():
-        return skill.q_values(data.states(), data.actions).min(dim=1).values.numpy()
 
 
 def main() -> None:
@@ -55,7 +42,7 @@ def main() -> None:
     args = parser.parse_args()
     try:
         transitions = load_split(args.dataset / "place" / args.split)
-        libraries = {name: min_of_8(name, transitions) for name in filter(None, args.checkpoints.split(","))}
+        libraries = {name: min_of_8("place", transitions, None if name == "shipped" else Path(name)) for name in filter(None, args.checkpoints.split(","))}
     except T2MError as error:
         sys.exit(f"error: {error}")
     measured = place_margins(transitions, ("footprint_gap", "clearance"))
