@@ -38,14 +38,20 @@ EDGES = (-np.inf, -0.02, 0.0, 0.01, 0.02, 0.05, np.inf)
 
 
 def place_margins(transitions: Transitions, predictions: tuple[str, ...] = ("support_margin",)) -> dict[str, np.ndarray]:
-    """``{prediction: (N,)}`` Place's margins (metres) of each transition's decoded state and action,
-    every prediction from one screen call per transition."""
-    place = get_primitive("place")
-    physical = place.to_physical(np.asarray(transitions.action, dtype=np.float64))
+    """``{prediction: (N,)}`` Place's margins (metres) of each transition's decoded state and action
+    (:func:`screen_margins`)."""
+    return screen_margins("place", transitions, predictions)
+
+
+def screen_margins(skill: str, transitions: Transitions, predictions: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """``{prediction: (N,)}`` a primitive's screen predictions of each transition's decoded state and
+    action, every prediction from one screen call per transition."""
+    primitive = get_primitive(skill)
+    physical = primitive.to_physical(np.asarray(transitions.action, dtype=np.float64))
     margins = {name: np.empty(len(transitions)) for name in predictions}
     for row in range(len(transitions)):
         state = decode_observation(transitions.observation[row], transitions.object_names(row))
-        screen = place.screen_of_states([state], transitions.argument_names(row), physical[row][None], np.zeros(1, dtype=np.int64))
+        screen = primitive.screen_of_states([state], transitions.argument_names(row), physical[row][None], np.zeros(1, dtype=np.int64))
         for name in predictions:
             margins[name][row] = screen[name][0]
     return margins

@@ -29,7 +29,7 @@ SCREEN_FEATURES: dict[str, tuple[str, ...]] = {
     "pick": ("in_the_way",),
     "place": ("in_the_way", "too_high", "clearance", "footprint_gap", "support_gap", "workspace_margin", "support_margin", "balance_margin"),
     "pull": ("clearance", "reach_margin"),
-    "push": ("clearance", "reach_margin"),
+    "push": ("clearance", "sweep_gap", "reach_margin"),
 }
 """The predictions a skill's geometric Q-ensemble reads by default (``t2m train --q-network
 geometric``; ``--screen`` picks others): for Pick, the flag ``in_the_way``; for the hook sweeps,
@@ -39,14 +39,17 @@ its two flags and six margins (without ``support_margin``, task1's plans set box
 table's edge; without ``balance_margin``, task6's set the hook down with its head beyond it, and it
 rolled off about its handle; ``too_high`` marks releases the descent's drop check fails, which a
 search found where the data are thin; ``footprint_gap`` took Place's recall from 93.35 to 94.85 %
-on the same data: docs/guide/skills.md#pull-push-and-place)."""
+on the same data: docs/guide/skills.md#pull-push-and-place); for Push, also ``sweep_gap``, which
+tells a sweep under a box standing on the rack (half of those pushes succeed) from one into a box
+on the table (2 % do), where ``clearance`` reads −1 cm for both."""
 MARGIN_SCALES: dict[str, float] = {
-    "clearance": 0.05, "reach_margin": 0.05, "under_depth": 0.1, "leg_clearance": 0.05, "footprint_gap": 0.01, "support_gap": 0.02, "workspace_margin": 0.05,
+    "clearance": 0.05, "reach_margin": 0.05, "under_depth": 0.1, "leg_clearance": 0.05, "footprint_gap": 0.01, "sweep_gap": 0.01, "support_gap": 0.02, "workspace_margin": 0.05,
     "support_margin": 0.05, "balance_margin": 0.02,
 }
 """Predictions that are margins in metres, and the margin that enters a network as ±0.5
 (:func:`screen_inputs`): the hook sweeps' ``clearance`` from the bystanders beyond the screen's own
-clearances and ``reach_margin`` inside the arm's reach (negative where ``in_the_way`` or
+clearances, ``sweep_gap`` from those at the sweep's height (negative: how deep the swept hook or
+box reaches into one) and ``reach_margin`` inside the arm's reach (negative where ``in_the_way`` or
 ``unreachable``); Push's ``under_depth`` of the box under the rack and ``leg_clearance`` of the
 swept box from the rack's legs; Place's ``clearance`` of the set-down object from the bystanders,
 ``footprint_gap`` from those that rise above its lowest point (negative: how deep it overlaps one),

@@ -249,6 +249,30 @@ def test_the_margins_behind_the_flags_measure_the_sweep_in_metres() -> None:
     assert judged["reach_margin"][3] < 0.0 and judged["unreachable"].tolist() == [False, False, False, True]
 
 
+def test_sweep_gap_is_signed_and_sees_only_what_stands_at_the_sweeps_height() -> None:
+    """``sweep_gap``: the plain gap of the swept hook and box from a bystander while they lie apart
+    (the unsigned ``clearance`` plus the 1 cm it keeps), then minus how deep they reach into it as the
+    red box moves 1 cm at a time into the pull's path (its near edge parallel to the path), where
+    ``clearance`` reads −1 cm for any overlap; the same box raised above the sweep (standing on a
+    rack's plate) is no obstacle to it, though ``clearance`` still counts its footprint."""
+    draw = pull(-0.3, -0.03)[None]
+    ys = (0.20, 0.19, 0.18, 0.17, 0.16, 0.15)
+    judged = [PULL.screen_of_states([holding_hook((0.8, 0.0), grasp_x=-0.1, rack=False, red_box=on_table("red_box", 0.6, y))],
+                                    PULL_ARGS, draw, np.zeros(1, dtype=int)) for y in ys]
+    gap, clearance = (np.array([float(j[name][0]) for j in judged]) for name in ("sweep_gap", "clearance"))
+    assert 0.0 < clearance[1] < 0.01
+    expected = clearance[1] + TOOL_CLEARANCE - (0.19 - np.array(ys))  # the box 1 cm deeper each step
+    np.testing.assert_allclose(gap, expected, atol=1e-9)
+    assert gap[-1] < -0.02 and np.all(clearance[gap < 0.0] == -TOOL_CLEARANCE)
+    np.testing.assert_allclose(clearance[:2], gap[:2] - TOOL_CLEARANCE, atol=1e-12)
+    raised = on_table("red_box", 0.6, 0.15)
+    raised = type(raised)(raised.position + np.array([0.0, 0.0, 0.2]), raised.quaternion)
+    above = PULL.screen_of_states([holding_hook((0.8, 0.0), grasp_x=-0.1, rack=False, red_box=raised)], PULL_ARGS, draw, np.zeros(1, dtype=int))
+    assert above["sweep_gap"][0] == CLEARANCE_RANGE and above["clearance"][0] < 0.0
+    alone = PULL.screen_of_states([PULL_SCENE], PULL_ARGS, draw, np.zeros(1, dtype=int))
+    assert alone["sweep_gap"][0] == alone["clearance"][0] == CLEARANCE_RANGE  # no bystander at all
+
+
 def test_push_margins_follow_the_box_under_the_rack() -> None:
     """``under_depth`` is below the screen's 2 cm band where it says ``not_under``, inside it where it
     passes, beyond 12 cm where the box is driven into the far legs; once under, it grows with the

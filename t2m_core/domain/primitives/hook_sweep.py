@@ -31,10 +31,11 @@ from t2m_core.domain.primitives.sweep_screen import (
     Verdicts,
     bystanders,
     lands_on_target,
+    obstacle_bottoms,
     obstacle_footprints,
     predict_sweeps,
     reach_margin,
-    sweep_clearance,
+    sweep_clearance_and_gap,
     unreachable,
 )
 from t2m_core.domain.state import GeometricState, ObjectPose
@@ -280,23 +281,36 @@ class HookSweep(Primitive):
         (the EE leaves the arm's reach: :func:`~t2m_core.domain.primitives.sweep_screen.unreachable`),
         and the margins behind them in metres, ``"clearance"``
         (:func:`~t2m_core.domain.primitives.sweep_screen.sweep_clearance` from the bystanders, up to
-        :data:`~t2m_core.domain.primitives.sweep_screen.CLEARANCE_RANGE`; negative where in the way)
+        :data:`~t2m_core.domain.primitives.sweep_screen.CLEARANCE_RANGE`; negative where in the way),
+        ``"sweep_gap"`` (the signed gap of the swept hook and box from the bystander parts whose
+        bottom lies below the top of the target or of the hook at the sweep height, within ±that
+        range: :func:`~t2m_core.domain.primitives.sweep_screen.sweep_clearance_and_gap`; negative,
+        how deep they reach into one, where ``"clearance"`` reads the same for any overlap, even
+        with a box standing on the rack above the sweep)
         and ``"reach_margin"`` (:func:`~t2m_core.domain.primitives.sweep_screen.reach_margin`). The
         states hold the same objects; an object's geometry is computed once per distinct pose."""
         arguments = self.check_arguments(states[0], arguments)
         state_of = np.asarray(state_of, dtype=np.int64)
         geometry = object_geometry_memo()
         prediction = self._predict_of_states(states, arguments, physical, state_of, geometry)
-        obstacles = [obstacle_footprints(bystanders(state, arguments, geometry)) for state in states]  # (N, K_s, 2) each
+        others = [bystanders(state, arguments, geometry) for state in states]
+        obstacles = [obstacle_footprints(shapes) for shapes in others]  # (N, K_s, 2) each
         if obstacles[0].shape[0] == 0:
-            clearance = np.full(len(state_of), CLEARANCE_RANGE)
+            clearance = sweep_gap = np.full(len(state_of), CLEARANCE_RANGE)
         else:
             obstacles = pad_polygons(obstacles)[state_of]  # (B, N, K, 2)
-            clearance = sweep_clearance(prediction, hook_obstacles=obstacles, target_obstacles=obstacles, hand_obstacles=obstacles, within=CLEARANCE_RANGE)
-        predictions = {"in_the_way": clearance < 0.0, "unreachable": unreachable(prediction), "clearance": clearance, "reach_margin": reach_margin(prediction)}
+            # the sweep's layer: up to the top of the target or of the hook at the sweep height
+            hook_top = SWEEP_HEIGHT + 0.5 * object_spec(arguments[1]).size[2]
+            tops = np.array([max(hook_top, geometry(arguments[0], state.objects[arguments[0]]).aabb[1][2]) for state in states])
+            in_layer = np.array([obstacle_bottoms(shapes) for shapes in others]) < tops[:, None]  # (S, N)
+            clearance, sweep_gap = sweep_clearance_and_gap(prediction, obstacles, in_layer[state_of], CLEARANCE_RANGE)
+        predictions = {
+            "in_the_way": clearance < 0.0, "unreachable": unreachable(prediction), "clearance": clearance, "sweep_gap": sweep_gap,
+            "reach_margin": reach_margin(prediction),
+        }
         return predictions | self.sweep_margins(states, arguments, prediction, state_of, geometry)
 
-    screen_predictions: tuple[str, ...] = ("in_the_way", "unreachable", "clearance", "reach_margin")
+    screen_predictions: tuple[str, ...] = ("in_the_way", "unreachable", "clearance", "sweep_gap", "reach_margin")
     """The predictions :meth:`screen_of_states` makes."""
 
     def sweep_margins(

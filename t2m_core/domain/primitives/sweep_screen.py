@@ -34,6 +34,7 @@ from t2m_core.domain.geometry import (
     pad_polygons,
     penetration_depths,
     polygon_edges,
+    signed_hull_distances,
     quat_to_matrix,
     translation_hull,
     yawed_footprints,
@@ -289,13 +290,44 @@ def sweep_clearance(
     smallest of the three); negative where :func:`sweep_disturbs`. Measured up to ``within``: a
     draw that clears everything by more reads ``within`` (the larger it is, the more pairs of region
     and obstacle need an exact distance). Obstacles as :func:`sweep_disturbs` takes them."""
+    hook, target, hand = swept_regions(prediction)
+    regions = ((hook, hook_obstacles, TOOL_CLEARANCE), (target, target_obstacles, TOOL_CLEARANCE), (hand, hand_obstacles, HAND_CLEARANCE))
+    return np.min([nearest_gaps(*region, obstacles, clearance + within) - clearance for region, obstacles, clearance in regions], axis=0)
+
+
+def sweep_clearance_and_gap(
+    prediction: SweepPrediction, obstacles: np.ndarray, in_layer: np.ndarray, within: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`sweep_clearance` of B sweeps from one set of ``(B, N, K, 2)`` obstacles (for the hook,
+    the target and the hand alike), and ``(B,)`` the *signed* gap between the swept hook and target
+    and the nearest obstacle in the sweep's layer (``(B, N)`` ``in_layer``: an obstacle whose bottom
+    lies below the swept objects' tops), metres, within ±``within``: negative, how deep the sweep
+    reaches into one (the shortest move that separates them,
+    :func:`~t2m_core.domain.geometry.signed_hull_distances`), where the clearance reads
+    ``−TOOL_CLEARANCE`` for any overlap, even with an object raised above the sweep (a box on the
+    rack). One exact test per near pair serves both: the signed distance is the plain one apart."""
+    hook, target, hand = swept_regions(prediction)
+    pairs = [pair_gaps(*region, obstacles, TOOL_CLEARANCE + within, signed=True) for region in (hook, target)]
+    draw, obstacle, signed = (np.concatenate(column) for column in zip(*pairs, strict=True))
+    tool = np.full(len(prediction.sweep), TOOL_CLEARANCE + within)
+    np.minimum.at(tool, draw, np.maximum(signed, 0.0))
+    clearance = np.minimum(tool - TOOL_CLEARANCE, nearest_gaps(*hand, obstacles, HAND_CLEARANCE + within) - HAND_CLEARANCE)
+    low = np.asarray(in_layer, dtype=bool)[draw, obstacle]
+    gap = np.full(len(prediction.sweep), within)
+    np.minimum.at(gap, draw[low], signed[low])
+    return clearance, np.maximum(gap, -within)
+
+
+def swept_regions(prediction: SweepPrediction) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
+    """What B sweeps cover, each as ``(points, edges)`` (:func:`~t2m_core.domain.geometry.hull_distances`
+    takes them): the hook's parts swept from the reach pose to the sweep end, the target's footprint
+    swept to its predicted ends (with and without drift), and the EE's straight path (one segment)."""
     still = np.zeros_like(prediction.sweep)
     hook = translation_hull(prediction.hook_reach, np.stack((still, prediction.sweep), axis=-2)[:, None])
     target_shifts = np.stack((still, prediction.target_shift, prediction.drift_shift), axis=-2)
     target = translation_hull(prediction.target_start, target_shifts)
     hand = (prediction.ee_path, prediction.ee_path[:, None])  # one segment
-    regions = ((hook, hook_obstacles, TOOL_CLEARANCE), (target, target_obstacles, TOOL_CLEARANCE), (hand, hand_obstacles, HAND_CLEARANCE))
-    return np.min([nearest_gaps(*region, obstacles, clearance + within) - clearance for region, obstacles, clearance in regions], axis=0)
+    return hook, target, hand
 
 
 def comes_near(points: np.ndarray, edges: np.ndarray, obstacles: np.ndarray, clearance: float) -> np.ndarray:
@@ -326,11 +358,28 @@ def near_pairs(points: np.ndarray, obstacles: np.ndarray, within: float) -> tupl
 def nearest_gaps(points: np.ndarray, edges: np.ndarray, obstacles: np.ndarray, within: float) -> np.ndarray:
     """``(B,)`` the smallest distance from any region of a draw to any obstacle (arguments as
     :func:`comes_near` takes them), metres; ``within`` where every one lies at least that far."""
-    region, _, candidates = near_pairs(points, obstacles, within)
+    draw, _, distances = pair_gaps(points, edges, obstacles, within)
     nearest = np.full(len(points), float(within))
-    distances = hull_distances(points[*region], edges[*region], candidates, polygon_edges(candidates))
-    np.minimum.at(nearest, region[0], distances)
+    np.minimum.at(nearest, draw, distances)
     return nearest
+
+
+def pair_gaps(
+    points: np.ndarray, edges: np.ndarray, obstacles: np.ndarray, within: float, *, signed: bool = False
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The distances of the pairs of a draw's region and an obstacle that :func:`near_pairs` finds
+    within ``within`` metres (arguments as :func:`comes_near` takes them): each pair's draw, obstacle
+    and distance, ``(P,)`` each; ``signed``: minus the penetration depth where they overlap
+    (:func:`~t2m_core.domain.geometry.signed_hull_distances`), not 0."""
+    region, obstacle, candidates = near_pairs(points, obstacles, within)
+    distance = signed_hull_distances if signed else hull_distances
+    return region[0], obstacle, distance(points[*region], edges[*region], candidates, polygon_edges(candidates))
+
+
+def obstacle_bottoms(geometries: Sequence[ObjectGeometry]) -> np.ndarray:
+    """``(N,)`` the lowest z of every convex part of the objects, metres, in the order of
+    :func:`obstacle_footprints`."""
+    return np.array([bottom for geometry in geometries for bottom in geometry.part_corners[..., 2].min(axis=-1)], dtype=np.float64)
 
 
 def obstacle_footprints(geometries: Sequence[ObjectGeometry]) -> np.ndarray:
