@@ -385,15 +385,27 @@ def signed_hull_distances(points_a: np.ndarray, edges_a: np.ndarray, points_b: n
     """:func:`hull_distances` where the hulls lie apart, minus the penetration depth where they
     overlap (the shortest translation that separates them: along the unit normals of both hulls'
     segments, the least move that clears one's projection past the other's), metres; arguments as :func:`hull_distances` takes them."""
-    normals = np.concatenate((_segment_normals(edges_a), _segment_normals(edges_b)), axis=-2)  # (..., S, 2)
+    distances = np.asarray(hull_distances(points_a, edges_a, points_b, edges_b))
+    touching = distances == 0.0  # only these need a depth
+    if not touching.any():
+        return distances
+
+    def of_touching(array: np.ndarray, tail: int) -> np.ndarray:
+        """The touching pairs' entries of an array with ``tail`` trailing axes: ``(T, ...)``."""
+        return np.broadcast_to(array, (*distances.shape, *array.shape[array.ndim - tail:]))[touching]
+
+    points_a, points_b, edges_a, edges_b = of_touching(points_a, 2), of_touching(points_b, 2), of_touching(edges_a, 3), of_touching(edges_b, 3)
+    normals = np.concatenate((_segment_normals(edges_a), _segment_normals(edges_b)), axis=-2)  # (T, S, 2)
     length = np.linalg.norm(normals, axis=-1)
     axes = np.swapaxes(normals / np.maximum(length, 1e-30)[..., None], -1, -2)
-    proj_a, proj_b = points_a @ axes, points_b @ axes  # (..., M, S)
+    proj_a, proj_b = points_a @ axes, points_b @ axes  # (T, M, S)
     # the shorter of the two moves along an axis that clear one projection past the other (one hull
     # inside the other needs more than their overlap)
     overlap = np.minimum(proj_a.max(axis=-2) - proj_b.min(axis=-2), proj_b.max(axis=-2) - proj_a.min(axis=-2))
     depth = np.where(length > 1e-12, overlap, np.inf).min(axis=-1)  # a zero-length segment separates nothing
-    return np.where(depth > 0.0, -depth, hull_distances(points_a, edges_a, points_b, edges_b))
+    signed = distances.astype(np.float64, copy=True)
+    signed[touching] = np.where(depth > 0.0, -depth, 0.0)
+    return signed
 
 
 def _segment_normals(segments: np.ndarray) -> np.ndarray:
