@@ -257,9 +257,11 @@ def test_sweep_gap_is_signed_and_sees_only_what_stands_at_the_sweeps_height() ->
     rack's plate) is no obstacle to it, though ``clearance`` still counts its footprint."""
     draw = pull(-0.3, -0.03)[None]
     ys = (0.20, 0.19, 0.18, 0.17, 0.16, 0.15)
-    judged = [PULL.screen_of_states([holding_hook((0.8, 0.0), grasp_x=-0.1, rack=False, red_box=on_table("red_box", 0.6, y))],
-                                    PULL_ARGS, draw, np.zeros(1, dtype=int)) for y in ys]
+    states = [holding_hook((0.8, 0.0), grasp_x=-0.1, rack=False, red_box=on_table("red_box", 0.6, y)) for y in ys]
+    judged = [PULL.screen_of_states([state], PULL_ARGS, draw, np.zeros(1, dtype=int)) for state in states]
     gap, clearance = (np.array([float(j[name][0]) for j in judged]) for name in ("sweep_gap", "clearance"))
+    batch = PULL.screen_of_states(states[::-1], PULL_ARGS, draw.repeat(len(ys), axis=0), np.arange(len(ys))[::-1])
+    np.testing.assert_array_equal(batch["sweep_gap"], gap)  # each sample in its own state, as judged alone
     assert 0.0 < clearance[1] < 0.01
     expected = clearance[1] + TOOL_CLEARANCE - (0.19 - np.array(ys))  # the box 1 cm deeper each step
     np.testing.assert_allclose(gap, expected, atol=1e-9)

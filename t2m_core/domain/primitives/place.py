@@ -28,7 +28,6 @@ from t2m_core.domain.geometry import (
     polygon_edges,
     quat_yaw,
     rotate,
-    signed_hull_distances,
     wrap_angle,
     yaw_to_quat,
     yawed_footprints,
@@ -56,7 +55,7 @@ from t2m_core.domain.primitives.sweep_screen import (
     CLEARANCE_RANGE,
     TOOL_CLEARANCE,
     bystanders,
-    near_pairs,
+    pair_gaps,
     obstacle_footprints,
 )
 from t2m_core.domain.state import GeometricState, pose_groups
@@ -221,8 +220,7 @@ class Place(Primitive):
             footprints = yawed_footprints(object_spec(obj), positions, yaws)  # (B, P, 4, 2)
             obstacles = pad_polygons(obstacles)[bystander_group[state_of]]  # (B, N, K, 2)
             # one exact test per near pair serves both margins: the signed distance is the plain one apart
-            (draw, part), obstacle, candidates = near_pairs(footprints, obstacles, TOOL_CLEARANCE + CLEARANCE_RANGE)
-            signed = signed_hull_distances(footprints[draw, part], polygon_edges(footprints[draw, part]), candidates, polygon_edges(candidates))
+            draw, obstacle, signed = pair_gaps(footprints, polygon_edges(footprints), obstacles, TOOL_CLEARANCE + CLEARANCE_RANGE, signed=True)
             clearance = np.full(len(physical), TOOL_CLEARANCE + CLEARANCE_RANGE)
             np.minimum.at(clearance, draw, np.maximum(signed, 0.0))
             clearance -= TOOL_CLEARANCE

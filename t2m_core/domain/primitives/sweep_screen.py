@@ -34,8 +34,8 @@ from t2m_core.domain.geometry import (
     pad_polygons,
     penetration_depths,
     polygon_edges,
-    signed_hull_distances,
     quat_to_matrix,
+    signed_hull_distances,
     translation_hull,
     yawed_footprints,
 )
