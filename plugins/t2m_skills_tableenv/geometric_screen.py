@@ -40,8 +40,9 @@ table's edge; without ``balance_margin``, task6's set the hook down with its hea
 rolled off about its handle; ``too_high`` marks releases the descent's drop check fails, which a
 search found where the data are thin; ``footprint_gap`` took Place's recall from 93.35 to 94.85 %
 on the same data: docs/guide/skills.md#pull-push-and-place); for Push, also ``sweep_gap``, which
-tells a sweep under a box standing on the rack (half of those pushes succeed) from one into a box
-on the table (2 % do), where ``clearance`` reads −1 cm for both."""
+tells a sweep under a box standing on the rack (57 % of those validation pushes succeed) from one
+into a box on the table (5 %), where ``clearance`` reads −1 cm for both (on 12 000 transitions it
+lowered the validation loss from 0.154 to 0.145)."""
 MARGIN_SCALES: dict[str, float] = {
     "clearance": 0.05, "reach_margin": 0.05, "under_depth": 0.1, "leg_clearance": 0.05, "footprint_gap": 0.01, "sweep_gap": 0.01, "support_gap": 0.02, "workspace_margin": 0.05,
     "support_margin": 0.05, "balance_margin": 0.02,
