@@ -1,8 +1,8 @@
 """Where an action meets a bystander: the screen's signed gap against each transition's outcome,
 and what a skill's Q-ensembles call those transitions. Place's ``footprint_gap`` (the gap from the
 set-down footprint to the nearest bystander part that rises above the held object's lowest point at
-the release), Pull's and Push's ``sweep_gap`` (from the swept hook and box to the nearest
-bystander); negative: how deep they reach into one.
+the release), Pull's and Push's ``sweep_gap`` (from the swept hook and box to the nearest part of a
+bystander at the sweep's height); negative: how deep they reach into one.
 
     python benchmarks/overlap_gap.py DATASET [--skill place] [--split validation] [--checkpoints DIR,DIR] [--json OUT]
 

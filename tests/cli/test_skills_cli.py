@@ -269,7 +269,7 @@ def test_a_geometric_ensemble_trains_on_the_screen_predictions_chosen(tmp_path) 
     assert q["training"]["screen"] == ["in_the_way", "reach_margin"]
     assert load_q(tmp_path / "out" / "pull").features == ("in_the_way", "reach_margin")
     unknown = runner.invoke(app, [*common, "--q-network", "geometric", "--screen", "in_the_way,tipped", "--out", str(tmp_path / "x")])
-    assert unknown.exit_code == 2 and "asked for tipped" in unknown.output and "clearance, reach_margin" in unknown.output  # the names it predicts
+    assert unknown.exit_code == 2 and "asked for tipped" in unknown.output and "clearance, sweep_gap, reach_margin" in unknown.output  # the names it predicts
     unread = runner.invoke(app, [*common, "--screen", "clearance", "--out", str(tmp_path / "x")])
     assert unread.exit_code == 2 and "--q-network geometric" in unread.output
     assert not (tmp_path / "x").exists()
