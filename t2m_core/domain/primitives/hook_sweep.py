@@ -31,7 +31,7 @@ from t2m_core.domain.primitives.sweep_screen import (
     Verdicts,
     bystanders,
     lands_on_target,
-    obstacle_bottoms,
+    obstacle_heights,
     obstacle_footprints,
     predict_sweeps,
     reach_margin,
@@ -302,7 +302,7 @@ class HookSweep(Primitive):
             # the sweep's layer: up to the top of the target or of the hook at the sweep height
             hook_top = SWEEP_HEIGHT + 0.5 * object_spec(arguments[1]).size[2]
             tops = np.array([max(hook_top, geometry(arguments[0], state.objects[arguments[0]]).aabb[1][2]) for state in states])
-            in_layer = np.array([obstacle_bottoms(shapes) for shapes in others]) < tops[:, None]  # (S, N)
+            in_layer = np.array([obstacle_heights(shapes)[:, 0] for shapes in others]) < tops[:, None]  # (S, N)
             clearance, sweep_gap = sweep_clearance_and_gap(prediction, obstacles, in_layer[state_of], CLEARANCE_RANGE)
         predictions = {
             "in_the_way": clearance < 0.0, "unreachable": unreachable(prediction), "clearance": clearance, "sweep_gap": sweep_gap,

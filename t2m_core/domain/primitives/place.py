@@ -55,8 +55,10 @@ from t2m_core.domain.primitives.sweep_screen import (
     CLEARANCE_RANGE,
     TOOL_CLEARANCE,
     bystanders,
-    pair_gaps,
+    clearance_and_gap,
     obstacle_footprints,
+    obstacle_heights,
+    pair_gaps,
 )
 from t2m_core.domain.state import GeometricState, pose_groups
 
@@ -221,14 +223,9 @@ class Place(Primitive):
             obstacles = pad_polygons(obstacles)[bystander_group[state_of]]  # (B, N, K, 2)
             # one exact test per near pair serves both margins: the signed distance is the plain one apart
             draw, obstacle, signed = pair_gaps(footprints, polygon_edges(footprints), obstacles, TOOL_CLEARANCE + CLEARANCE_RANGE, signed=True)
-            clearance = np.full(len(physical), TOOL_CLEARANCE + CLEARANCE_RANGE)
-            np.minimum.at(clearance, draw, np.maximum(signed, 0.0))
-            clearance -= TOOL_CLEARANCE
-            part_tops = np.array([[top for shape in shapes for top in shape.part_corners[..., 2].max(axis=-1)] for shapes in others])
+            part_tops = np.array([obstacle_heights(shapes)[:, 1] for shapes in others])
             rising = part_tops[bystander_group[state_of]][draw, obstacle] > bottom[draw]  # the part rises above the set-down object
-            footprint_gap = np.full(len(physical), CLEARANCE_RANGE)
-            np.minimum.at(footprint_gap, draw[rising], signed[rising])
-            footprint_gap = np.clip(footprint_gap, -CLEARANCE_RANGE, CLEARANCE_RANGE)
+            clearance, footprint_gap = clearance_and_gap(len(physical), draw, signed, rising, CLEARANCE_RANGE)
         mass_centres = yawed_polygons(object_spec(obj).centre_of_mass()[None, None, :2], positions, yaws)[:, 0, 0]  # (B, 2)
         balance = balance_margins(obj, positions, yaws, mass_centres, tops[state_of])
         support_gap = bottom - surface[state_of]

@@ -309,13 +309,21 @@ def sweep_clearance_and_gap(
     hook, target, hand = swept_regions(prediction)
     pairs = [pair_gaps(*region, obstacles, TOOL_CLEARANCE + within, signed=True) for region in (hook, target)]
     draw, obstacle, signed = (np.concatenate(column) for column in zip(*pairs, strict=True))
-    tool = np.full(len(prediction.sweep), TOOL_CLEARANCE + within)
-    np.minimum.at(tool, draw, np.maximum(signed, 0.0))
-    clearance = np.minimum(tool - TOOL_CLEARANCE, nearest_gaps(*hand, obstacles, HAND_CLEARANCE + within) - HAND_CLEARANCE)
-    low = np.asarray(in_layer, dtype=bool)[draw, obstacle]
-    gap = np.full(len(prediction.sweep), within)
-    np.minimum.at(gap, draw[low], signed[low])
-    return clearance, np.maximum(gap, -within)
+    tool, gap = clearance_and_gap(len(prediction.sweep), draw, signed, np.asarray(in_layer, dtype=bool)[draw, obstacle], within)
+    return np.minimum(tool, nearest_gaps(*hand, obstacles, HAND_CLEARANCE + within) - HAND_CLEARANCE), gap
+
+
+def clearance_and_gap(count: int, draw: np.ndarray, signed: np.ndarray, eligible: np.ndarray, within: float) -> tuple[np.ndarray, np.ndarray]:
+    """From the ``(P,)`` signed distances of near pairs (:func:`pair_gaps` within
+    ``TOOL_CLEARANCE + within``) of ``count`` draws: ``(count,)`` how far each draw clears its
+    obstacles beyond :data:`TOOL_CLEARANCE` (``−TOOL_CLEARANCE`` for any overlap; up to ``within``),
+    and ``(count,)`` the signed gap to the ``eligible`` pairs' obstacles only, within ±``within``,
+    metres."""
+    clearance = np.full(count, TOOL_CLEARANCE + within)
+    np.minimum.at(clearance, draw, np.maximum(signed, 0.0))
+    gap = np.full(count, within)
+    np.minimum.at(gap, draw[eligible], signed[eligible])
+    return clearance - TOOL_CLEARANCE, np.maximum(gap, -within)
 
 
 def swept_regions(prediction: SweepPrediction) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
@@ -376,10 +384,10 @@ def pair_gaps(
     return region[0], obstacle, distance(points[*region], edges[*region], candidates, polygon_edges(candidates))
 
 
-def obstacle_bottoms(geometries: Sequence[ObjectGeometry]) -> np.ndarray:
-    """``(N,)`` the lowest z of every convex part of the objects, metres, in the order of
-    :func:`obstacle_footprints`."""
-    return np.array([bottom for geometry in geometries for bottom in geometry.part_corners[..., 2].min(axis=-1)], dtype=np.float64)
+def obstacle_heights(geometries: Sequence[ObjectGeometry]) -> np.ndarray:
+    """``(N, 2)`` the lowest and the highest z of every convex part of the objects, metres, in the
+    order of :func:`obstacle_footprints`."""
+    return np.array([(z.min(), z.max()) for geometry in geometries for z in geometry.part_corners[..., 2]], dtype=np.float64).reshape(-1, 2)
 
 
 def obstacle_footprints(geometries: Sequence[ObjectGeometry]) -> np.ndarray:
