@@ -133,14 +133,17 @@ def plot_calibration(path: Path, skill: str, valid: tuple[np.ndarray, np.ndarray
     edges = np.logspace(-8, np.log10(0.25), 40)
     for b, axis in enumerate(axes.flat):
         low, high = MEAN_BINS[b], MEAN_BINS[b + 1]
+        plotted = False
         for (mean, variance), label, colour in ((valid, "in distribution", "tab:blue"), (invalid, "invalid", "tab:red")):
             in_bin = variance[(mean >= low) & ((mean < high) | (b == 9))]
             if len(in_bin):
                 axis.hist(np.clip(in_bin, edges[0], None), bins=edges, weights=np.full(len(in_bin), 1 / len(in_bin)), alpha=0.55, color=colour, label=f"{label} ({len(in_bin)})")
+                plotted = True
         axis.axvline(threshold, color="black", linestyle="--", linewidth=1)
         axis.set_xscale("log")
-        axis.set_title(f"mean Q in [{low:.1f}, {high:.1f})", fontsize=9)
-        axis.legend(fontsize=7)
+        axis.set_title(f"mean Q in [{low:.1f}, {high:.1f})" + ("" if plotted else ": no pairs"), fontsize=9)
+        if plotted:  # an empty bin has nothing to label (matplotlib warns)
+            axis.legend(fontsize=7)
     figure.supxlabel("variance of the 8 member probabilities (log scale); dashed: threshold")
     figure.supylabel("share of the bin's pairs")
     figure.suptitle(f"{skill}: OOD calibration, threshold {threshold:.3g}")

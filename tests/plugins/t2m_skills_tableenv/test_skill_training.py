@@ -551,3 +551,19 @@ def test_a_killed_policy_run_with_searched_targets_resumes_to_the_same_policy(tm
     states = validation.states()
     with torch.no_grad():
         torch.testing.assert_close(resumed.network(states), whole.network(states))
+
+
+def test_the_calibration_plot_marks_empty_mean_bins_without_warnings(tmp_path) -> None:
+    import warnings
+
+    from PIL import Image
+
+    from t2m_skills_tableenv.calibration import plot_calibration
+
+    # every pair in the lowest mean bin: the other nine bins have nothing to plot or label
+    valid = (np.full(50, 0.05), np.full(50, 1e-4))
+    invalid = (np.full(80, 0.02), np.full(80, 1e-6))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        plot_calibration(tmp_path / "ood.png", "push", valid, invalid, 1e-3)
+    assert Image.open(tmp_path / "ood.png").size[0] > 500
