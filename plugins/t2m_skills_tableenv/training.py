@@ -12,6 +12,8 @@ frozen ensemble, then the dynamics on the successes. Each stage:
 
 from __future__ import annotations
 
+import copy
+
 import json
 import math
 import time
@@ -70,6 +72,11 @@ class StageSettings(BaseModel):
     )
     exposure_weight: float = Field(
         1.0, ge=0, description="Q-ensemble only, with OOD exposure data: weight of the exposure loss against the labelled loss"
+    )
+    weight_average: float = Field(
+        0.0, ge=0, lt=1, description="Q-ensemble only: decay per step of an exponential moving average of the weights, which "
+        "is evaluated, selected and saved instead of the trained weights (docs/guide/skills.md#averaged-weights; 0: none, "
+        "the published training)"
     )
     q_network: Literal["mlp", "relational", "geometric"] = Field(
         "mlp",
@@ -160,6 +167,10 @@ class Stage:
     def evaluate(self) -> Evaluation:
         raise NotImplementedError
 
+    def evaluated_network(self) -> nn.Module:
+        """The weights :meth:`evaluate` judges, saved when they are the best: the trained network."""
+        return self.network
+
     @property
     def train_size(self) -> int:
         raise NotImplementedError
@@ -249,6 +260,7 @@ class QStage(Stage):
             self.resample = torch.randint(len(train), (self.network.members, len(train)), generator=generator)
         self.optimizer = torch.optim.Adam(self.network.parameters(), lr=settings.learning_rate)
         self.schedule = torch.optim.lr_scheduler.CosineAnnealingLR(self.optimizer, T_max=settings.steps, eta_min=0.0)
+        self.average = WeightAverage(self.network, settings.weight_average) if settings.weight_average > 0 else None
         # a geometric ensemble's screen of the stored pairs, computed once (row order does not change it)
         self.train_screen, self.validation_screen = data_screen(self.network, train), data_screen(self.network, validation)
 
@@ -257,7 +269,15 @@ class QStage(Stage):
         return len(self.train)
 
     def parameters_to_save(self) -> dict[str, nn.Module | torch.optim.Optimizer]:
-        return {"network": self.network, "optimizer": self.optimizer, "schedule": _SchedulerModule(self.schedule)}
+        saved: dict[str, nn.Module | torch.optim.Optimizer] = {
+            "network": self.network, "optimizer": self.optimizer, "schedule": _SchedulerModule(self.schedule)
+        }
+        if self.average is not None:
+            saved["average"] = self.average.network
+        return saved
+
+    def evaluated_network(self) -> nn.Module:
+        return self.network if self.average is None else self.average.network
 
     def step(self, index: torch.Tensor, generator: torch.Generator) -> dict[str, float]:
         loss, record = torch.zeros(()), {}
@@ -274,6 +294,8 @@ class QStage(Stage):
         loss.backward()
         self.optimizer.step()
         self.schedule.step()
+        if self.average is not None:
+            self.average.update()
         return record
 
     def _labelled_loss(self, index: torch.Tensor, generator: torch.Generator) -> torch.Tensor:
@@ -291,12 +313,34 @@ class QStage(Stage):
 
     @torch.no_grad()
     def evaluate(self) -> Evaluation:
-        metrics = q_metrics(self.network, self.validation, self.validation_screen)
+        network = self.evaluated_network()
+        metrics = q_metrics(network, self.validation, self.validation_screen)
         if self.exposure is not None:
             sample = self.exposure.data.head(EXPOSURE_MONITOR_PAIRS)
-            probabilities = self.network.probabilities(sample.states(), sample.actions)
+            probabilities = network.probabilities(sample.states(), sample.actions)
             metrics["exposure_variance"] = float(probabilities.var(dim=1, unbiased=False).mean())
         return Evaluation(-metrics["loss"], metrics)
+
+
+class WeightAverage:
+    """An exponential moving average of ``source``'s weights (Polyak averaging): after every
+    optimiser step, ``network ← decay · network + (1 − decay) · source``, parameters and buffers.
+    ``network`` starts as a copy of ``source`` and averages over about ``1 / (1 − decay)`` steps."""
+
+    def __init__(self, source: nn.Module, decay: float) -> None:
+        if not 0.0 < decay < 1.0:
+            raise ValueError(f"a weight average's decay lies in (0, 1), not {decay}")
+        self.source, self.decay = source, decay
+        self.network = copy.deepcopy(source).requires_grad_(False)
+
+    @torch.no_grad()
+    def update(self) -> None:
+        """Move the average one step towards ``source``'s current weights."""
+        averaged = [*self.network.parameters(), *self.network.buffers()]
+        current = [*self.source.parameters(), *self.source.buffers()]
+        floating = [(a, c) for a, c in zip(averaged, current, strict=True) if a.is_floating_point()]
+        if floating:
+            torch._foreach_lerp_([a for a, _ in floating], [c for _, c in floating], 1.0 - self.decay)  # noqa: SLF001
 
 
 class PolicyStage(Stage):
@@ -628,7 +672,7 @@ def run_stage(
                 handle.write(json.dumps(record) + "\n")
             if evaluation.score > best["score"]:
                 best = {"score": evaluation.score, "step": step, "metrics": evaluation.metrics}
-                save_weights(weights_path, stage.network)
+                save_weights(weights_path, stage.evaluated_network())
             save_training_state(
                 state_path,
                 {**saved, "generator": _GeneratorModule(generator)},

@@ -130,6 +130,11 @@ def train(
     exposure_weight: Annotated[
         float | None, typer.Option("--exposure-weight", min=0.0, help="Weight of the OOD exposure loss against the labelled loss (default 1).")
     ] = None,
+    weight_average: Annotated[
+        float | None,
+        typer.Option("--weight-average", min=0.0, max=0.9999, help="Q-ensemble: evaluate, select and save an exponential moving "
+                     "average of the weights with this decay per step (e.g. 0.999; default 0: the trained weights)."),
+    ] = None,
     threads: Annotated[
         int | None,
         typer.Option("--threads", min=1, help="Torch / OpenMP threads of the training (default: all cores; 1 beside other busy jobs, "
@@ -153,7 +158,7 @@ def train(
         ("exposure_weight", exposure_weight), ("policy_targets", policy_targets), ("screen", _names(screen)), ("policy_target_sigma", policy_target_sigma),
         ("policy_target_weight", policy_target_weight), ("policy_target_value", policy_target_value), ("policy_target_margin", policy_target_margin),
         ("policy_target_uniform", policy_target_uniform), ("policy_target_focus", policy_target_focus),
-        ("policy_target_tolerance", policy_target_tolerance),
+        ("policy_target_tolerance", policy_target_tolerance), ("weight_average", weight_average),
     )
     overrides = {key: value for key, value in chosen if value is not None}
     results = {}

@@ -12,7 +12,7 @@ import torch
 from t2m_core.errors import T2MError
 from t2m_skills_tableenv.dataset import SkillTensors, shuffle_rows
 from t2m_skills_tableenv.networks import QEnsemble
-from t2m_skills_tableenv.training import Anchor, DynamicsStage, PolicyStage, QStage, StageSettings, q_metrics, run_stage
+from t2m_skills_tableenv.training import Anchor, DynamicsStage, PolicyStage, QStage, StageSettings, WeightAverage, q_metrics, run_stage
 
 
 def synthetic(count: int, seed: int) -> SkillTensors:
@@ -181,6 +181,52 @@ def test_a_killed_run_resumes_from_its_last_evaluation(tmp_path) -> None:
     assert resumed["best"] == pytest.approx(whole["best"], rel=1e-5)
     steps = [json.loads(line)["step"] for line in (tmp_path / "killed" / "metrics-q.jsonl").read_text().splitlines()]
     assert steps == [10, 20, 30, 40]
+
+
+def test_the_weight_average_follows_the_trained_weights_at_its_decay() -> None:
+    source = torch.nn.Linear(3, 2)
+    start = source.weight.detach().clone()
+    average = WeightAverage(source, decay=0.75)
+    with torch.no_grad():
+        source.weight.fill_(1.0)
+    average.update()
+    average.update()
+    # two steps towards 1: 1 + (w0 - 1) * 0.75²
+    assert torch.allclose(average.network.weight, 1.0 + (start - 1.0) * 0.5625)
+    assert not average.network.weight.requires_grad
+    with pytest.raises(ValueError, match="decay"):
+        WeightAverage(source, decay=1.0)
+
+
+def test_an_averaged_run_selects_and_saves_the_average_and_resumes_it_after_a_kill(tmp_path) -> None:
+    from t2m_skills_tableenv.checkpoints import load_weights
+
+    train, validation = synthetic(512, 0), synthetic(128, 1)
+    settings = StageSettings(steps=40, batch_size=32, learning_rate=1e-3, eval_every=10, weight_average=0.9)
+
+    def stage() -> QStage:
+        torch.manual_seed(settings.seed)
+        return QStage(train, validation, settings)
+
+    whole_stage = stage()
+    averaged, trained = {}, {}
+
+    def snapshot(step, record):
+        averaged[step] = whole_stage.average.network.weights[0].detach().clone()
+        trained[step] = whole_stage.network.weights[0].detach().clone()
+
+    whole = run_stage(whole_stage, settings, tmp_path / "whole", on_progress=snapshot)
+    saved = QEnsemble()
+    load_weights(tmp_path / "whole" / "q_ensemble.safetensors", saved)
+    # the saved weights are the average at the best evaluation, not the trained weights
+    assert torch.equal(saved.weights[0], averaged[whole["best_step"]])
+    assert not torch.equal(averaged[whole["best_step"]], trained[whole["best_step"]])
+
+    _killed_at_step_20(stage(), settings, tmp_path / "killed")
+    resumed_stage = stage()
+    resumed = run_stage(resumed_stage, settings, tmp_path / "killed")
+    assert resumed["best"] == pytest.approx(whole["best"], rel=1e-5)
+    assert torch.equal(resumed_stage.average.network.weights[0], whole_stage.average.network.weights[0])
 
 
 def test_a_run_with_other_settings_does_not_mix_with_a_saved_state(tmp_path) -> None:
