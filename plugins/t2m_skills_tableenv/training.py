@@ -13,7 +13,6 @@ frozen ensemble, then the dynamics on the successes. Each stage:
 from __future__ import annotations
 
 import copy
-
 import json
 import math
 import time
@@ -279,6 +278,11 @@ class QStage(Stage):
     def evaluated_network(self) -> nn.Module:
         return self.network if self.average is None else self.average.network
 
+    def prepare(self, on_progress: Callable[[int, int], None] | None = None) -> None:
+        """Start the weight average from the starting weights (``--init-from``'s, once loaded)."""
+        if self.average is not None:
+            self.average.restart()
+
     def step(self, index: torch.Tensor, generator: torch.Generator) -> dict[str, float]:
         loss, record = torch.zeros(()), {}
         if self.labelled:
@@ -332,6 +336,11 @@ class WeightAverage:
             raise ValueError(f"a weight average's decay lies in (0, 1), not {decay}")
         self.source, self.decay = source, decay
         self.network = copy.deepcopy(source).requires_grad_(False)
+
+    @torch.no_grad()
+    def restart(self) -> None:
+        """Make the average ``source``'s current weights (new starting weights were loaded into it)."""
+        self.network.load_state_dict(self.source.state_dict())
 
     @torch.no_grad()
     def update(self) -> None:

@@ -198,6 +198,17 @@ def test_the_weight_average_follows_the_trained_weights_at_its_decay() -> None:
         WeightAverage(source, decay=1.0)
 
 
+def test_the_weight_average_starts_from_weights_loaded_after_the_stage_was_built() -> None:
+    train, validation = synthetic(64, 0), synthetic(32, 1)
+    settings = StageSettings(steps=10, batch_size=32, learning_rate=1e-3, eval_every=10, weight_average=0.999)
+    stage = QStage(train, validation, settings)
+    starting = QEnsemble()  # what --init-from loads into the stage's network after it is built
+    stage.network.load_state_dict(starting.state_dict())
+    assert not torch.equal(stage.average.network.weights[0], starting.weights[0])
+    stage.prepare()
+    assert torch.equal(stage.average.network.weights[0], starting.weights[0])
+
+
 def test_an_averaged_run_selects_and_saves_the_average_and_resumes_it_after_a_kill(tmp_path) -> None:
     from t2m_skills_tableenv.checkpoints import load_weights
 
