@@ -336,6 +336,10 @@ class WeightAverage:
             raise ValueError(f"a weight average's decay lies in (0, 1), not {decay}")
         self.source, self.decay = source, decay
         self.network = copy.deepcopy(source).requires_grad_(False)
+        # the floating-point tensors, paired once (loading a state copies into them in place)
+        pairs = zip([*self.network.parameters(), *self.network.buffers()], [*source.parameters(), *source.buffers()], strict=True)
+        floating = [(a, c) for a, c in pairs if a.is_floating_point()]
+        self._averaged, self._current = [a for a, _ in floating], [c for _, c in floating]
 
     @torch.no_grad()
     def restart(self) -> None:
@@ -345,11 +349,8 @@ class WeightAverage:
     @torch.no_grad()
     def update(self) -> None:
         """Move the average one step towards ``source``'s current weights."""
-        averaged = [*self.network.parameters(), *self.network.buffers()]
-        current = [*self.source.parameters(), *self.source.buffers()]
-        floating = [(a, c) for a, c in zip(averaged, current, strict=True) if a.is_floating_point()]
-        if floating:
-            torch._foreach_lerp_([a for a, _ in floating], [c for _, c in floating], 1.0 - self.decay)  # noqa: SLF001
+        if self._averaged:
+            torch._foreach_lerp_(self._averaged, self._current, 1.0 - self.decay)  # noqa: SLF001
 
 
 class PolicyStage(Stage):
